@@ -1,0 +1,37 @@
+#pragma once
+/// The planecell: a planar polygon with colour, the paper's basic map unit.
+#include <Eigen/Core>
+#include <array>
+#include <cstdint>
+#include <vector>
+
+#include "core/plane.hpp"
+
+namespace planecell {
+
+/// Joint colour-histogram bins of a planecell (quantised colour; see mapping/planecell).
+inline constexpr int kColourHistogramBins = 64;
+using ColourHistogram = std::array<float, kColourHistogramBins>;  ///< normalised to sum 1
+
+/// Sentinel surface label of a cell not (yet) assigned to a surface.
+inline constexpr std::uint32_t kNoSurface = 0xFFFFFFFFu;
+
+/// One planecell. Geometry is in the frame named by the owner (camera frame after extraction,
+/// world frame after the pose transform).
+struct Planecell {
+  std::uint32_t id = 0;           ///< unique within its frame (extraction) or map (global)
+  std::uint64_t frame_id = 0;     ///< frame it was extracted from
+  bool has_plane = false;         ///< false: planeless (sky, reflections); no 3D output
+  DisparityPlane disparity_plane; ///< d = a u + b v + c in the source image
+  Plane3 plane;                   ///< n·X + e = 0 (camera frame, or world after transform)
+  std::vector<Eigen::Vector2f> vertices_px;  ///< ordered polygon in the image
+  std::vector<Eigen::Vector3f> vertices_m;   ///< same polygon in 3D (camera or world frame)
+  Eigen::Vector3f mean_rgb = Eigen::Vector3f::Zero();  ///< 0..255, R G B order
+  ColourHistogram histogram{};
+  std::uint32_t area_px = 0;      ///< pixels in the segment
+  std::uint32_t inlier_count = 0; ///< RANSAC inliers
+  float inlier_ratio = 0.0f;      ///< inliers / valid disparities
+  std::uint32_t surface = kNoSurface;  ///< CRF surface label
+};
+
+}  // namespace planecell

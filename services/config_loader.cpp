@@ -1,0 +1,88 @@
+#include "services/config_loader.hpp"
+
+#include <yaml-cpp/yaml.h>
+
+#include <fstream>
+#include <set>
+#include <sstream>
+
+#include "core/error.hpp"
+
+namespace planecell::services {
+namespace {
+
+/// Reads every known key of one section from `node`; rejects unknown keys.
+template <class Section>
+void read_section(const YAML::Node& node, const std::string& where, Section& section) {
+  if (!node.IsMap()) throw ConfigError(where + ": expected a mapping of key: value");
+  std::set<std::string> known;
+  visit_fields(section, [&](const char* key, auto& field) {
+    known.insert(key);
+    const YAML::Node value = node[key];
+    if (!value) return;
+    using T = std::decay_t<decltype(field)>;
+    try {
+      field = value.as<T>();
+    } catch (const YAML::Exception&) {
+      throw ConfigError(where + "." + key + ": value '" + YAML::Dump(value) +
+                        "' has the wrong type");
+    }
+  });
+  for (const auto& entry : node) {
+    const auto key = entry.first.as<std::string>();
+    if (!known.contains(key)) throw ConfigError(where + ": unknown key '" + key + "'");
+  }
+}
+
+void apply_root(const YAML::Node& root, const std::string& source, AppConfig& config) {
+  if (!root || root.IsNull()) return;  // empty file: defaults
+  if (!root.IsMap()) throw ConfigError(source + ": expected sections (sgm:, extraction:, ...)");
+  std::set<std::string> known;
+  visit_sections(config, [&](const char* name, auto& section) {
+    known.insert(name);
+    if (root[name]) read_section(root[name], source + ": " + name, section);
+  });
+  for (const auto& entry : root) {
+    const auto name = entry.first.as<std::string>();
+    if (!known.contains(name)) throw ConfigError(source + ": unknown section '" + name + "'");
+  }
+}
+
+}  // namespace
+
+void apply_config_yaml(const std::string& yaml_text, const std::string& source, AppConfig& config) {
+  YAML::Node root;
+  try {
+    root = YAML::Load(yaml_text);
+  } catch (const YAML::Exception& e) {
+    throw ConfigError(source + ": not valid YAML (" + e.what() + ")");
+  }
+  apply_root(root, source, config);
+}
+
+AppConfig load_config(const std::filesystem::path& path) {
+  std::ifstream in(path);
+  if (!in) throw ConfigError("config '" + path.string() + "': file not found or unreadable");
+  std::stringstream text;
+  text << in.rdbuf();
+  AppConfig config;
+  apply_config_yaml(text.str(), "config '" + path.string() + "'", config);
+  return config;
+}
+
+std::string config_to_yaml(const AppConfig& config_in) {
+  AppConfig config = config_in;
+  YAML::Emitter out;
+  out << YAML::BeginMap;
+  visit_sections(config, [&](const char* name, auto& section) {
+    out << YAML::Key << name << YAML::Value << YAML::BeginMap;
+    visit_fields(section, [&](const char* key, auto& field) {
+      out << YAML::Key << key << YAML::Value << field;
+    });
+    out << YAML::EndMap;
+  });
+  out << YAML::EndMap;
+  return out.c_str();
+}
+
+}  // namespace planecell::services
