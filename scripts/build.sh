@@ -1,0 +1,8 @@
+#!/usr/bin/env bash
+# Configures and builds planecell (Release) into ./build. Extra arguments go to CMake's configure.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+BUILD_DIR=${PLANECELL_BUILD_DIR:-build}
+JOBS=${PLANECELL_JOBS:-$(nproc)}
+cmake -S . -B "$BUILD_DIR" -DCMAKE_BUILD_TYPE=Release "$@" >/dev/null
+cmake --build "$BUILD_DIR" -j "$JOBS"
