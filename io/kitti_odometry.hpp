@@ -40,6 +40,13 @@ void write_kitti_poses(const std::filesystem::path& path, const std::vector<Pose
 std::vector<double> read_kitti_times(const std::filesystem::path& path);
 void write_kitti_times(const std::filesystem::path& path, const std::vector<double>& times_s);
 
+/// The pose file of a sequence folder, looked up in this order: SEQ/poses/<seqname>.txt;
+/// SEQ/poses/00.txt or the only *.txt in SEQ/poses; SEQ/../../poses/<seqname>.txt (official
+/// layout dataset/sequences/NN + dataset/poses/NN.txt). nullopt when none exists; InputError when
+/// SEQ/poses holds several candidates and none of the expected names.
+std::optional<std::filesystem::path> find_kitti_poses_file(
+    const std::filesystem::path& sequence_dir);
+
 /// An opened KITTI-odometry-layout sequence. Frames are loaded lazily by index.
 struct KittiOdometrySequence {
   std::filesystem::path root;

@@ -8,7 +8,7 @@ FRAMES=${1:-${PLANECELL_DEMO_FRAMES:-20}}
 OUT=${PLANECELL_DEMO_OUT:-out/demo}
 ./scripts/setup.sh
 ./scripts/build.sh >/dev/null
-BIN=${PLANECELL_BUILD_DIR:-build}/planecell
+BIN=${PLANECELL_BUILD_DIR:-build}/services/planecell
 rm -rf "$OUT"
 mkdir -p "$OUT"
 

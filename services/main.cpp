@@ -32,6 +32,11 @@ int main(int argc, char** argv) {
   app.fallthrough();
 
   add_config_command(app, context);
+  add_disparity_command(app, context);
+  add_eval_stereo_command(app, context);
+  add_synth_command(app, context);
+  add_info_command(app, context);
+  add_extract_command(app, context);
 
   try {
     app.parse(argc, argv);

@@ -3,14 +3,44 @@
 
 namespace planecell {
 
-/// Global planecell map and incremental CRF merging (paper §5.2).
+/// Global planecell map and incremental CRF merging (paper §5.2, Eq. CRFFunction).
+/// The "variation range" of the circular greedy merging is (max_normal_angle_deg,
+/// max_plane_distance_m, min_colour_similarity): a pair outside it is never merged.
 struct MapConfig {
   double max_range_m = 40.0;  ///< cells farther than this from the camera are not mapped
+  // --- CRF variation range --------------------------------------------------------------------
+  double max_normal_angle_deg = 10.0;  ///< max angle between the two surfaces' normals
+  double max_plane_distance_m = 0.08;  ///< max RMS distance of a cell's vertices to the other plane
+  double min_colour_similarity = 0.3;  ///< min histogram intersection δ ∈ [0, 1]
+  double residual_scale_m = 0.05;      ///< σ: θ' residuals are measured in units of σ (m)
+  double neighbour_gap_m = 0.30;       ///< 3D neighbours: polygons closer than this (m)
+  // --- fusion and index -----------------------------------------------------------------------
+  double fuse_new_area_fraction = 0.25;  ///< a re-observed cell adding < this share of its own
+                                         ///< area to its surface is fused, not stored
+  double footprint_simplify_m = 0.02;    ///< Douglas–Peucker tolerance of surface footprints (m)
+  double index_cell_m = 2.0;             ///< edge of the hashed 3D grid of cell bounds (m)
+  // --- queries --------------------------------------------------------------------------------
+  double up_x = 0.0;  ///< world "up" (KITTI camera-style world: y down, so up = (0, −1, 0))
+  double up_y = -1.0;
+  double up_z = 0.0;
+  double max_ground_tilt_deg = 15.0;  ///< a ground surface's normal is within this of "up"
 };
 
 template <class Visitor>
 void visit_fields(MapConfig& c, Visitor&& visit) {
   visit("max_range_m", c.max_range_m);
+  visit("max_normal_angle_deg", c.max_normal_angle_deg);
+  visit("max_plane_distance_m", c.max_plane_distance_m);
+  visit("min_colour_similarity", c.min_colour_similarity);
+  visit("residual_scale_m", c.residual_scale_m);
+  visit("neighbour_gap_m", c.neighbour_gap_m);
+  visit("fuse_new_area_fraction", c.fuse_new_area_fraction);
+  visit("footprint_simplify_m", c.footprint_simplify_m);
+  visit("index_cell_m", c.index_cell_m);
+  visit("up_x", c.up_x);
+  visit("up_y", c.up_y);
+  visit("up_z", c.up_z);
+  visit("max_ground_tilt_deg", c.max_ground_tilt_deg);
 }
 
 /// OctoMap voxel baseline (paper's 10 cm voxel map).

@@ -5,15 +5,58 @@
 namespace planecell {
 
 /// SGM (paper Eq. 1–2): Census + gradient matching cost, 8- or 4-path aggregation.
+///
+/// Cost scale (Eq. 1): C(p, d) = H(T_L(p), T_R(p − d)) + λ_grad · min(|G_L(p) − G_R(p − d)|,
+/// grad_cap), with H the Hamming distance of census descriptors (0 … census_w·census_h − 1) and
+/// G the horizontal (epipolar) Sobel derivative of the grey image divided by 4 (grey levels/px).
+/// P1/P2 are in the same unit.
 struct SgmConfig {
   int max_disparity = 128;  ///< number of disparities searched, d ∈ [0, max_disparity)
-  int threads = 2;          ///< worker threads for cost + aggregation
+  int threads = 2;          ///< worker threads for cost + aggregation (aggregation uses ≤ 2)
+
+  // Matching cost (Eq. 1).
+  int census_width = 9;     ///< census window width (odd, width·height ≤ 65)
+  int census_height = 7;    ///< census window height (odd)
+  double lambda_grad = 0.5;  ///< λ_grad, weight of the gradient term
+  int grad_cap = 30;        ///< truncation of |G_L − G_R| (grey levels/px)
+
+  // Aggregation (Eq. 2).
+  int paths = 8;            ///< 8 (all directions) or 4 (horizontal + vertical)
+  int p1 = 10;              ///< penalty for |Δd| = 1 between neighbours
+  int p2 = 120;             ///< penalty for |Δd| > 1 (≤ 7900 so that 8 paths fit in 16 bits)
+  bool p2_adaptive = true;  ///< P2' = max(P1, P2 − p2_slope·|I(p) − I(p − r)|)
+  double p2_slope = 2.0;    ///< P2 decrease per grey level of intensity step along the path
+
+  // Post-processing.
+  bool subpixel = true;          ///< parabola fit through S(d−1), S(d), S(d+1)
+  /// %, reject when the second best (|Δd| > 1) is within this margin; 0 = off. Off by default:
+  /// on all Middlebury + KITTI samples together it removed more good pixels than bad ones.
+  int uniqueness_ratio = 0;
+  bool lr_check = true;          ///< left-right consistency from the same aggregated volume
+  int lr_max_diff_px = 2;        ///< |d_L(x) − d_R(x − d_L)| allowed
+  int speckle_window_size = 100; ///< max region size (px) removed by cv::filterSpeckles; 0 = off
+  double speckle_range_px = 2.0; ///< max disparity step inside one speckle region
 };
 
 template <class Visitor>
 void visit_fields(SgmConfig& c, Visitor&& visit) {
   visit("max_disparity", c.max_disparity);
   visit("threads", c.threads);
+  visit("census_width", c.census_width);
+  visit("census_height", c.census_height);
+  visit("lambda_grad", c.lambda_grad);
+  visit("grad_cap", c.grad_cap);
+  visit("paths", c.paths);
+  visit("p1", c.p1);
+  visit("p2", c.p2);
+  visit("p2_adaptive", c.p2_adaptive);
+  visit("p2_slope", c.p2_slope);
+  visit("subpixel", c.subpixel);
+  visit("uniqueness_ratio", c.uniqueness_ratio);
+  visit("lr_check", c.lr_check);
+  visit("lr_max_diff_px", c.lr_max_diff_px);
+  visit("speckle_window_size", c.speckle_window_size);
+  visit("speckle_range_px", c.speckle_range_px);
 }
 
 }  // namespace planecell

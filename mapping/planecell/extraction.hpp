@@ -14,7 +14,7 @@ struct ExtractionTimings {
   double superpixels_ms = 0.0;
   double planes_ms = 0.0;
   double boundary_update_ms = 0.0;
-  double vertices_ms = 0.0;
+  double vertices_ms = 0.0;      ///< vertices, 2D→3D, cell attributes and the dense disparity
   double total_ms = 0.0;
 };
 
@@ -22,13 +22,26 @@ struct ExtractionTimings {
 struct PlanecellFrame {
   cv::Mat labels;                ///< CV_32S segment id per pixel, = index into `cells`
   std::vector<Planecell> cells;  ///< cells[i].id == i; planeless cells have has_plane = false
-  cv::Mat dense_disparity;       ///< CV_32F, rendered from the planes (NaN where planeless)
+  cv::Mat dense_disparity;       ///< CV_32F, rendered from the planes (see render_dense_disparity)
+  cv::Mat outliers;              ///< CV_8U, 255 where a valid input disparity is off its plane
   double plane_fraction = 0.0;   ///< share of segments with a plane
+  int cell_size_px = 0;          ///< s = ⌊√(|I|/|S|)⌋, the initial grid step
   ExtractionTimings timings;
 };
 
+/// 64-bin colour histogram bin of a BGR pixel (RGB, 4 levels per channel): the cell histogram.
+inline int colour_histogram_bin(unsigned char b, unsigned char g, unsigned char r) {
+  return (r >> 6) * 16 + (g >> 6) * 4 + (b >> 6);
+}
+
 /// Extracts the planecells of a frame from its left colour image (CV_8UC3 BGR, or CV_8UC1) and
-/// disparity (CV_32F, NaN = invalid, same size). Throws InputError on size/type mismatches.
+/// disparity (CV_32F, NaN = invalid, same size):
+///  1. SEEDS-style block hill climbing on E(S) = H(S) + λ_reg·R(S) (no planes yet);
+///  2. RANSAC + least-squares plane per segment;
+///  3. depth-aware boundary update (λ_depth·D(S) on) at the finest block level and the pixels,
+///     connectivity enforcement, and a second plane fit (failed segments are retried);
+///  4. vertices, 2D→3D conversion, cell attributes and the dense plane disparity.
+/// Throws InputError on empty images or size/type mismatches, ConfigError on a bad config.
 PlanecellFrame extract_planecells(const cv::Mat& left, const cv::Mat& disparity,
                                   const StereoCamera& camera, const ExtractionConfig& config);
 

@@ -12,4 +12,12 @@ namespace planecell::stereo {
 /// (max_disparity <= 0 or >= width, ...).
 cv::Mat compute_disparity(const cv::Mat& left, const cv::Mat& right, const SgmConfig& config);
 
+/// The checks compute_disparity starts with (InputError / ConfigError naming the bad value).
+void validate_sgm_input(const cv::Mat& left, const cv::Mat& right, const SgmConfig& config);
+
+/// Straightforward scalar SGM with full W×H×D volumes per path (int32, no SIMD, one thread):
+/// the reference the fast path is tested against. Same maths, same results.
+cv::Mat compute_disparity_reference(const cv::Mat& left, const cv::Mat& right,
+                                    const SgmConfig& config);
+
 }  // namespace planecell::stereo

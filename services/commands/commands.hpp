@@ -5,5 +5,10 @@
 namespace planecell::services {
 
 void add_config_command(CLI::App& app, CommandContext& context);
+void add_disparity_command(CLI::App& app, CommandContext& context);
+void add_eval_stereo_command(CLI::App& app, CommandContext& context);
+void add_synth_command(CLI::App& app, CommandContext& context);
+void add_info_command(CLI::App& app, CommandContext& context);
+void add_extract_command(CLI::App& app, CommandContext& context);
 
 }  // namespace planecell::services

@@ -1,0 +1,524 @@
+#include "io/map_store.hpp"
+
+#include <sqlite3.h>
+
+#include <cstring>
+#include <fstream>
+#include <limits>
+#include <type_traits>
+
+#include "core/error.hpp"
+
+namespace planecell::io {
+namespace {
+
+constexpr const char* kFormat = "planecell-map";
+constexpr const char* kVersion = "1";
+
+constexpr const char* kSchema = R"sql(
+CREATE TABLE meta(key TEXT PRIMARY KEY, value TEXT NOT NULL);
+CREATE TABLE frames(frame_id INTEGER PRIMARY KEY, pose BLOB NOT NULL, input_cells INTEGER,
+                    added_cells INTEGER, fused_cells INTEGER, merge_ms REAL);
+CREATE TABLE cells(id INTEGER PRIMARY KEY, frame_id INTEGER NOT NULL, surface INTEGER NOT NULL,
+                   has_plane INTEGER NOT NULL, disparity_plane BLOB NOT NULL, plane BLOB NOT NULL,
+                   vertices_px BLOB NOT NULL, vertices_m BLOB NOT NULL, mean_rgb BLOB NOT NULL,
+                   histogram BLOB NOT NULL, area_px INTEGER NOT NULL, inlier_count INTEGER NOT NULL,
+                   inlier_ratio REAL NOT NULL);
+CREATE INDEX cells_by_surface ON cells(surface);
+CREATE VIRTUAL TABLE cell_bounds USING rtree(id, min_x, max_x, min_y, max_y, min_z, max_z);
+CREATE TABLE surfaces(id INTEGER PRIMARY KEY, data BLOB NOT NULL);
+CREATE TABLE merges(seq INTEGER PRIMARY KEY AUTOINCREMENT, frame_id INTEGER NOT NULL,
+                    absorbed INTEGER NOT NULL, into_surface INTEGER NOT NULL);
+)sql";
+
+/// Appends trivially copyable values as raw little-endian bytes (x86-64 / AArch64 hosts).
+class Writer {
+ public:
+  template <class T>
+  void put(const T& v) {
+    static_assert(std::is_trivially_copyable_v<T>);
+    const auto* p = reinterpret_cast<const std::uint8_t*>(&v);
+    bytes.insert(bytes.end(), p, p + sizeof(T));
+  }
+  template <class Derived>
+  void put_matrix(const Eigen::MatrixBase<Derived>& m) {
+    for (Eigen::Index i = 0; i < m.size(); ++i) put(m(i));
+  }
+  std::vector<std::uint8_t> bytes;
+};
+
+/// Reads what Writer wrote; throws StorageError on a short blob.
+class Reader {
+ public:
+  Reader(const void* data, std::size_t size, std::string what)
+      : data_(static_cast<const std::uint8_t*>(data)), size_(size), what_(std::move(what)) {}
+  template <class T>
+  T get() {
+    if (pos_ + sizeof(T) > size_)
+      throw StorageError(what_ + ": blob truncated at byte " + std::to_string(pos_));
+    T v;
+    std::memcpy(&v, data_ + pos_, sizeof(T));
+    pos_ += sizeof(T);
+    return v;
+  }
+  template <class Derived>
+  void get_matrix(Eigen::MatrixBase<Derived>& m) {
+    for (Eigen::Index i = 0; i < m.size(); ++i) m(i) = get<typename Derived::Scalar>();
+  }
+  std::uint32_t count(std::size_t element_bytes) {
+    const auto n = get<std::uint32_t>();
+    if (static_cast<std::size_t>(n) * element_bytes > size_ - pos_)
+      throw StorageError(what_ + ": count " + std::to_string(n) + " exceeds the blob");
+    return n;
+  }
+  void expect_end() const {
+    if (pos_ != size_) throw StorageError(what_ + ": " + std::to_string(size_ - pos_) + " trailing bytes");
+  }
+
+ private:
+  const std::uint8_t* data_;
+  std::size_t size_;
+  std::size_t pos_ = 0;
+  std::string what_;
+};
+
+std::vector<std::uint8_t> encode_surface(const map::Surface& s) {
+  Writer w;
+  w.put_matrix(s.plane.normal);
+  w.put(s.plane.offset);
+  w.put(s.moments.weight);
+  w.put_matrix(s.moments.sum);
+  w.put_matrix(s.moments.sum_outer);
+  for (float h : s.histogram) w.put(h);
+  w.put(s.histogram_weight_m2);
+  w.put_matrix(s.mean_rgb);
+  w.put(s.observed_area_m2);
+  w.put(s.area_m2);
+  w.put_matrix(s.bounds.min);
+  w.put_matrix(s.bounds.max);
+  w.put_matrix(s.basis.origin);
+  w.put_matrix(s.basis.u);
+  w.put_matrix(s.basis.v);
+  w.put(s.observations);
+  w.put(static_cast<std::uint32_t>(s.cells.size()));
+  for (auto id : s.cells) w.put(id);
+  w.put(static_cast<std::uint32_t>(s.footprint.size()));
+  auto put_ring = [&](const auto& ring) {
+    w.put(static_cast<std::uint32_t>(ring.size()));
+    for (const auto& p : ring) w.put(p.x()), w.put(p.y());
+  };
+  for (const auto& [key, mp] : s.footprint) {
+    w.put(key);
+    w.put(static_cast<std::uint32_t>(mp.size()));
+    for (const auto& poly : mp) {
+      put_ring(poly.outer());
+      w.put(static_cast<std::uint32_t>(poly.inners().size()));
+      for (const auto& ring : poly.inners()) put_ring(ring);
+    }
+  }
+  return std::move(w.bytes);
+}
+
+map::Surface decode_surface(std::uint32_t id, const void* data, std::size_t size, const std::string& where) {
+  Reader r(data, size, where + ": surface " + std::to_string(id));
+  map::Surface s;
+  s.id = id;
+  r.get_matrix(s.plane.normal);
+  s.plane.offset = r.get<double>();
+  s.moments.weight = r.get<double>();
+  r.get_matrix(s.moments.sum);
+  r.get_matrix(s.moments.sum_outer);
+  for (float& h : s.histogram) h = r.get<float>();
+  s.histogram_weight_m2 = r.get<double>();
+  r.get_matrix(s.mean_rgb);
+  s.observed_area_m2 = r.get<double>();
+  s.area_m2 = r.get<double>();
+  r.get_matrix(s.bounds.min);
+  r.get_matrix(s.bounds.max);
+  r.get_matrix(s.basis.origin);
+  r.get_matrix(s.basis.u);
+  r.get_matrix(s.basis.v);
+  s.observations = r.get<std::uint32_t>();
+  s.cells.resize(r.count(sizeof(std::uint32_t)));
+  for (auto& c : s.cells) c = r.get<std::uint32_t>();
+  auto get_ring = [&](auto& ring) {
+    const auto n = r.count(2 * sizeof(double));
+    for (std::uint32_t k = 0; k < n; ++k) {
+      const double x = r.get<double>();
+      const double y = r.get<double>();
+      ring.push_back(map::Point2(x, y));
+    }
+  };
+  const auto tiles = r.count(sizeof(map::TileKey) + sizeof(std::uint32_t));
+  for (std::uint32_t t = 0; t < tiles; ++t) {
+    const auto key = r.get<map::TileKey>();
+    map::MultiPolygon2& mp = s.footprint[key];
+    mp.resize(r.count(2 * sizeof(std::uint32_t)));
+    for (auto& poly : mp) {
+      get_ring(poly.outer());
+      poly.inners().resize(r.count(sizeof(std::uint32_t)));
+      for (auto& ring : poly.inners()) get_ring(ring);
+    }
+  }
+  r.expect_end();
+  return s;
+}
+
+template <class Vec>
+std::vector<std::uint8_t> encode_vectors(const std::vector<Vec>& vs) {
+  Writer w;
+  for (const auto& v : vs) w.put_matrix(v);
+  return std::move(w.bytes);
+}
+
+template <class Vec>
+std::vector<Vec> decode_vectors(const void* data, std::size_t size, const std::string& what) {
+  constexpr std::size_t kBytes = sizeof(typename Vec::Scalar) * Vec::SizeAtCompileTime;
+  if (size % kBytes != 0) throw StorageError(what + ": blob size " + std::to_string(size) + " is not a multiple of " + std::to_string(kBytes));
+  Reader r(data, size, what);
+  std::vector<Vec> out(size / kBytes);
+  for (auto& v : out) r.get_matrix(v);
+  return out;
+}
+
+/// A prepared statement bound to the store (finalized on destruction).
+class Statement {
+ public:
+  Statement(sqlite3* db, const char* sql, const MapStore& store) : db_(db) {
+    if (sqlite3_prepare_v2(db, sql, -1, &stmt_, nullptr) != SQLITE_OK)
+      throw StorageError("map store '" + store.path().string() + "': " + sqlite3_errmsg(db));
+  }
+  ~Statement() { sqlite3_finalize(stmt_); }
+  Statement(const Statement&) = delete;
+  Statement& operator=(const Statement&) = delete;
+
+  Statement& bind(int i, std::int64_t v) { return check(sqlite3_bind_int64(stmt_, i, v)); }
+  Statement& bind(int i, double v) { return check(sqlite3_bind_double(stmt_, i, v)); }
+  Statement& bind(int i, const std::string& v) {
+    return check(sqlite3_bind_text(stmt_, i, v.c_str(), static_cast<int>(v.size()), SQLITE_TRANSIENT));
+  }
+  Statement& bind(int i, const std::vector<std::uint8_t>& v) {
+    return check(sqlite3_bind_blob(stmt_, i, v.data(), static_cast<int>(v.size()), SQLITE_TRANSIENT));
+  }
+  /// SQLITE_ROW → true, SQLITE_DONE → false, otherwise the error code is returned via `rc`.
+  bool step(int& rc) {
+    rc = sqlite3_step(stmt_);
+    return rc == SQLITE_ROW;
+  }
+  void reset() {
+    sqlite3_reset(stmt_);
+    sqlite3_clear_bindings(stmt_);
+  }
+  std::int64_t integer(int c) const { return sqlite3_column_int64(stmt_, c); }
+  double real(int c) const { return sqlite3_column_double(stmt_, c); }
+  std::string text(int c) const {
+    const auto* p = sqlite3_column_text(stmt_, c);
+    return p ? reinterpret_cast<const char*>(p) : "";
+  }
+  const void* blob(int c) const { return sqlite3_column_blob(stmt_, c); }
+  std::size_t blob_size(int c) const { return static_cast<std::size_t>(sqlite3_column_bytes(stmt_, c)); }
+  int last_rc = SQLITE_OK;
+
+ private:
+  Statement& check(int rc) {
+    if (rc != SQLITE_OK) throw StorageError(std::string("map store: bind failed: ") + sqlite3_errmsg(db_));
+    return *this;
+  }
+  sqlite3* db_;
+  sqlite3_stmt* stmt_ = nullptr;
+};
+
+/// Runs a statement to completion; throws via `fail` on an error code.
+template <class Fail>
+void run(Statement& s, Fail&& fail) {
+  int rc = SQLITE_OK;
+  while (s.step(rc)) {
+  }
+  if (rc != SQLITE_DONE) fail();
+  s.reset();
+}
+
+}  // namespace
+
+void MapStore::fail(const std::string& what) const {
+  throw StorageError("map store '" + path_.string() + "': " + what +
+                     (db_ ? std::string(" (") + sqlite3_errmsg(db_) + ")" : std::string()));
+}
+
+void MapStore::exec(const char* sql) const {
+  char* message = nullptr;
+  if (sqlite3_exec(db_, sql, nullptr, nullptr, &message) != SQLITE_OK) {
+    const std::string text = message ? message : "unknown error";
+    sqlite3_free(message);
+    throw StorageError("map store '" + path_.string() + "': " + text);
+  }
+}
+
+MapStore::MapStore(const std::filesystem::path& path) : path_(path) {
+  std::error_code ec;
+  const bool exists = std::filesystem::exists(path, ec);
+  if (exists) {
+    // Refuse anything that is not an SQLite file before SQLite touches it.
+    std::ifstream in(path, std::ios::binary);
+    char header[16] = {};
+    in.read(header, sizeof(header));
+    if (!in || std::memcmp(header, "SQLite format 3\0", 16) != 0)
+      throw StorageError("map store '" + path.string() +
+                         "': not a planecell map (not an SQLite database); left unchanged");
+  }
+  const int flags = SQLITE_OPEN_READWRITE | (exists ? 0 : SQLITE_OPEN_CREATE);
+  if (sqlite3_open_v2(path.c_str(), &db_, flags, nullptr) != SQLITE_OK) {
+    const std::string message = db_ ? sqlite3_errmsg(db_) : "out of memory";
+    sqlite3_close(db_);
+    db_ = nullptr;
+    throw StorageError("map store '" + path.string() + "': cannot open (" + message + ")");
+  }
+  sqlite3_extended_result_codes(db_, 1);
+  try {
+    if (exists) {
+      // Read-only checks first: integrity, then the format marker.
+      {
+        Statement check(db_, "PRAGMA quick_check", *this);
+        int rc = SQLITE_OK;
+        std::string verdict;
+        while (check.step(rc)) verdict += check.text(0);
+        if (rc != SQLITE_DONE) fail("corrupt or truncated database");
+        if (verdict != "ok") fail("corrupt or truncated database: " + verdict);
+      }
+      {
+        Statement has_meta(db_, "SELECT count(*) FROM sqlite_master WHERE type='table' AND name='meta'", *this);
+        int rc = SQLITE_OK;
+        if (!has_meta.step(rc) || has_meta.integer(0) != 1)
+          fail("a foreign SQLite database (no planecell meta table); left unchanged");
+      }
+      Statement format(db_, "SELECT value FROM meta WHERE key='format'", *this);
+      int rc = SQLITE_OK;
+      if (!format.step(rc) || format.text(0) != kFormat)
+        fail("a foreign SQLite database (format is not 'planecell-map'); left unchanged");
+      Statement version(db_, "SELECT value FROM meta WHERE key='version'", *this);
+      if (!version.step(rc) || version.text(0) != kVersion)
+        fail("unsupported planecell map version '" + version.text(0) + "'");
+    }
+    exec("PRAGMA journal_mode=WAL");
+    exec("PRAGMA synchronous=NORMAL");
+    if (!exists) {
+      exec("BEGIN IMMEDIATE");
+      exec(kSchema);
+      Statement meta(db_, "INSERT INTO meta(key, value) VALUES (?, ?)", *this);
+      for (const auto& [k, v] : {std::pair<std::string, std::string>{"format", kFormat},
+                                 {"version", kVersion}, {"next_cell_id", "0"}, {"next_surface_id", "0"}}) {
+        meta.bind(1, k).bind(2, v);
+        run(meta, [&] { fail("cannot write the schema"); });
+      }
+      exec("COMMIT");
+    }
+  } catch (...) {
+    sqlite3_close(db_);
+    db_ = nullptr;
+    throw;
+  }
+}
+
+MapStore::~MapStore() { sqlite3_close(db_); }
+
+void MapStore::commit_frame(std::uint64_t frame_id, const Pose& T_world_cam,
+                            const map::MergeReport& report, const map::GlobalMap& map) {
+  const std::string frame = "frame " + std::to_string(frame_id);
+  exec("BEGIN IMMEDIATE");
+  try {
+    auto failed = [&] { fail("cannot commit " + frame); };
+    {
+      Writer pose;
+      pose.put_matrix(T_world_cam.matrix());
+      Statement s(db_, "INSERT INTO frames VALUES (?, ?, ?, ?, ?, ?)", *this);
+      s.bind(1, static_cast<std::int64_t>(frame_id)).bind(2, pose.bytes)
+          .bind(3, static_cast<std::int64_t>(report.input_cells))
+          .bind(4, static_cast<std::int64_t>(report.added_cells.size()))
+          .bind(5, static_cast<std::int64_t>(report.fused_cells)).bind(6, report.merge_ms);
+      run(s, failed);
+    }
+    {
+      Statement cell(db_, "INSERT INTO cells VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)", *this);
+      Statement bounds(db_, "INSERT INTO cell_bounds VALUES (?, ?, ?, ?, ?, ?, ?)", *this);
+      for (std::uint32_t id : report.added_cells) {
+        const Planecell* c = map.cell(id);
+        if (!c) fail(frame + ": added cell " + std::to_string(id) + " is not in the map");
+        Writer dp, plane, rgb, hist;
+        dp.put(c->disparity_plane.a), dp.put(c->disparity_plane.b), dp.put(c->disparity_plane.c);
+        plane.put_matrix(c->plane.normal), plane.put(c->plane.offset);
+        rgb.put_matrix(c->mean_rgb);
+        for (float h : c->histogram) hist.put(h);
+        cell.bind(1, std::int64_t{id}).bind(2, static_cast<std::int64_t>(c->frame_id))
+            .bind(3, std::int64_t{c->surface}).bind(4, std::int64_t{c->has_plane})
+            .bind(5, dp.bytes).bind(6, plane.bytes).bind(7, encode_vectors(c->vertices_px))
+            .bind(8, encode_vectors(c->vertices_m)).bind(9, rgb.bytes).bind(10, hist.bytes)
+            .bind(11, std::int64_t{c->area_px}).bind(12, std::int64_t{c->inlier_count})
+            .bind(13, static_cast<double>(c->inlier_ratio));
+        run(cell, failed);
+        Eigen::Vector3f lo = Eigen::Vector3f::Constant(std::numeric_limits<float>::max()), hi = -lo;
+        for (const auto& v : c->vertices_m) lo = lo.cwiseMin(v), hi = hi.cwiseMax(v);
+        bounds.bind(1, std::int64_t{id}).bind(2, double{lo.x()}).bind(3, double{hi.x()})
+            .bind(4, double{lo.y()}).bind(5, double{hi.y()}).bind(6, double{lo.z()}).bind(7, double{hi.z()});
+        run(bounds, failed);
+      }
+    }
+    {
+      Statement relabel(db_, "UPDATE cells SET surface = ? WHERE id = ?", *this);
+      for (std::uint32_t id : report.relabelled_cells) {
+        const Planecell* c = map.cell(id);
+        if (!c) fail(frame + ": relabelled cell " + std::to_string(id) + " is not in the map");
+        relabel.bind(1, std::int64_t{c->surface}).bind(2, std::int64_t{id});
+        run(relabel, failed);
+      }
+      Statement remove_cell(db_, "DELETE FROM cells WHERE id = ?", *this);
+      Statement remove_bounds(db_, "DELETE FROM cell_bounds WHERE id = ?", *this);
+      for (std::uint32_t id : report.removed_cells) {
+        remove_cell.bind(1, std::int64_t{id});
+        run(remove_cell, failed);
+        remove_bounds.bind(1, std::int64_t{id});
+        run(remove_bounds, failed);
+      }
+    }
+    {
+      Statement remove(db_, "DELETE FROM surfaces WHERE id = ?", *this);
+      for (std::uint32_t id : report.removed_surfaces) {
+        remove.bind(1, std::int64_t{id});
+        run(remove, failed);
+      }
+      Statement upsert(db_, "INSERT OR REPLACE INTO surfaces VALUES (?, ?)", *this);
+      for (std::uint32_t id : report.updated_surfaces) {
+        const map::Surface* s = map.surface(id);
+        if (!s) fail(frame + ": updated surface " + std::to_string(id) + " is not in the map");
+        upsert.bind(1, std::int64_t{id}).bind(2, encode_surface(*s));
+        run(upsert, failed);
+      }
+      Statement merge(db_, "INSERT INTO merges(frame_id, absorbed, into_surface) VALUES (?, ?, ?)", *this);
+      for (const auto& m : report.surface_merges) {
+        merge.bind(1, static_cast<std::int64_t>(m.frame_id)).bind(2, std::int64_t{m.absorbed})
+            .bind(3, std::int64_t{m.into});
+        run(merge, failed);
+      }
+      Statement meta(db_, "UPDATE meta SET value = ? WHERE key = ?", *this);
+      meta.bind(1, std::to_string(map.next_cell_id())).bind(2, std::string("next_cell_id"));
+      run(meta, failed);
+      meta.bind(1, std::to_string(map.next_surface_id())).bind(2, std::string("next_surface_id"));
+      run(meta, failed);
+    }
+    if (sqlite3_exec(db_, "COMMIT", nullptr, nullptr, nullptr) != SQLITE_OK) failed();
+  } catch (...) {
+    sqlite3_exec(db_, "ROLLBACK", nullptr, nullptr, nullptr);
+    throw;
+  }
+}
+
+StoredMap MapStore::load() const {
+  StoredMap out;
+  const std::string where = "map store '" + path_.string() + "'";
+  int rc = SQLITE_OK;
+  {
+    Statement meta(db_, "SELECT key, value FROM meta WHERE key IN ('next_cell_id', 'next_surface_id')", *this);
+    while (meta.step(rc)) {
+      const auto value = static_cast<std::uint32_t>(std::stoul(meta.text(1)));
+      (meta.text(0) == "next_cell_id" ? out.next_cell_id : out.next_surface_id) = value;
+    }
+    if (rc != SQLITE_DONE) fail("cannot read meta");
+  }
+  {
+    Statement cells(db_, "SELECT id, frame_id, surface, has_plane, disparity_plane, plane, vertices_px, "
+                         "vertices_m, mean_rgb, histogram, area_px, inlier_count, inlier_ratio "
+                         "FROM cells ORDER BY id", *this);
+    while (cells.step(rc)) {
+      Planecell c;
+      c.id = static_cast<std::uint32_t>(cells.integer(0));
+      const std::string what = where + ": cell " + std::to_string(c.id);
+      c.frame_id = static_cast<std::uint64_t>(cells.integer(1));
+      c.surface = static_cast<std::uint32_t>(cells.integer(2));
+      c.has_plane = cells.integer(3) != 0;
+      Reader dp(cells.blob(4), cells.blob_size(4), what + " disparity plane");
+      c.disparity_plane.a = dp.get<double>(), c.disparity_plane.b = dp.get<double>(),
+      c.disparity_plane.c = dp.get<double>();
+      dp.expect_end();
+      Reader plane(cells.blob(5), cells.blob_size(5), what + " plane");
+      plane.get_matrix(c.plane.normal);
+      c.plane.offset = plane.get<double>();
+      plane.expect_end();
+      c.vertices_px = decode_vectors<Eigen::Vector2f>(cells.blob(6), cells.blob_size(6), what + " vertices_px");
+      c.vertices_m = decode_vectors<Eigen::Vector3f>(cells.blob(7), cells.blob_size(7), what + " vertices_m");
+      Reader rgb(cells.blob(8), cells.blob_size(8), what + " colour");
+      rgb.get_matrix(c.mean_rgb);
+      rgb.expect_end();
+      Reader hist(cells.blob(9), cells.blob_size(9), what + " histogram");
+      for (float& h : c.histogram) h = hist.get<float>();
+      hist.expect_end();
+      c.area_px = static_cast<std::uint32_t>(cells.integer(10));
+      c.inlier_count = static_cast<std::uint32_t>(cells.integer(11));
+      c.inlier_ratio = static_cast<float>(cells.real(12));
+      out.cells.push_back(std::move(c));
+    }
+    if (rc != SQLITE_DONE) fail("cannot read cells");
+  }
+  {
+    Statement surfaces(db_, "SELECT id, data FROM surfaces ORDER BY id", *this);
+    while (surfaces.step(rc))
+      out.surfaces.push_back(decode_surface(static_cast<std::uint32_t>(surfaces.integer(0)),
+                                            surfaces.blob(1), surfaces.blob_size(1), where));
+    if (rc != SQLITE_DONE) fail("cannot read surfaces");
+  }
+  return out;
+}
+
+std::size_t MapStore::frame_count() const {
+  Statement s(db_, "SELECT count(*) FROM frames", *this);
+  int rc = SQLITE_OK;
+  if (!s.step(rc)) fail("cannot count frames");
+  return static_cast<std::size_t>(s.integer(0));
+}
+
+std::vector<std::uint64_t> MapStore::frame_ids() const {
+  Statement s(db_, "SELECT frame_id FROM frames ORDER BY frame_id", *this);
+  std::vector<std::uint64_t> out;
+  int rc = SQLITE_OK;
+  while (s.step(rc)) out.push_back(static_cast<std::uint64_t>(s.integer(0)));
+  if (rc != SQLITE_DONE) fail("cannot read frames");
+  return out;
+}
+
+std::optional<Pose> MapStore::pose(std::uint64_t frame_id) const {
+  Statement s(db_, "SELECT pose FROM frames WHERE frame_id = ?", *this);
+  s.bind(1, static_cast<std::int64_t>(frame_id));
+  int rc = SQLITE_OK;
+  if (!s.step(rc)) {
+    if (rc != SQLITE_DONE) fail("cannot read frame poses");
+    return std::nullopt;
+  }
+  Reader r(s.blob(0), s.blob_size(0), "map store '" + path_.string() + "': pose of frame " + std::to_string(frame_id));
+  Pose pose;
+  r.get_matrix(pose.matrix());
+  r.expect_end();
+  return pose;
+}
+
+std::vector<map::SurfaceMerge> MapStore::merge_history() const {
+  Statement s(db_, "SELECT frame_id, absorbed, into_surface FROM merges ORDER BY seq", *this);
+  std::vector<map::SurfaceMerge> out;
+  int rc = SQLITE_OK;
+  while (s.step(rc))
+    out.push_back({static_cast<std::uint64_t>(s.integer(0)), static_cast<std::uint32_t>(s.integer(1)),
+                   static_cast<std::uint32_t>(s.integer(2))});
+  if (rc != SQLITE_DONE) fail("cannot read merge history");
+  return out;
+}
+
+std::vector<std::uint32_t> MapStore::cells_in_box(const map::Aabb& box) const {
+  Statement s(db_, "SELECT id FROM cell_bounds WHERE max_x >= ? AND min_x <= ? AND max_y >= ? "
+                   "AND min_y <= ? AND max_z >= ? AND min_z <= ? ORDER BY id", *this);
+  s.bind(1, box.min.x()).bind(2, box.max.x()).bind(3, box.min.y()).bind(4, box.max.y())
+      .bind(5, box.min.z()).bind(6, box.max.z());
+  std::vector<std::uint32_t> out;
+  int rc = SQLITE_OK;
+  while (s.step(rc)) out.push_back(static_cast<std::uint32_t>(s.integer(0)));
+  if (rc != SQLITE_DONE) fail("cannot query cell bounds");
+  return out;
+}
+
+}  // namespace planecell::io

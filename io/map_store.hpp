@@ -1,0 +1,77 @@
+#pragma once
+/// Durable store of the global planecell map: SQLite in WAL mode, one transaction per frame.
+///
+/// Schema: meta(key, value) with format = 'planecell-map', version and the map's id counters;
+/// frames(frame_id, pose, counts); cells(id, frame_id, surface, fields as columns, arrays as
+/// little-endian blobs); cell_bounds (R*Tree on each cell's 3D bounds); surfaces(id, blob);
+/// merges(seq, frame_id, absorbed, into_surface). Values are stored exactly (IEEE bytes), so a
+/// reopened store rebuilds a GlobalMap equal to the one committed. Other tools can read it.
+/// (io/planecell_codec is not used: it is lossy and camera-frame; the map needs exact world cells.)
+#include <cstdint>
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "core/config/map_config.hpp"
+#include "core/pose.hpp"
+#include "mapping/map/global_map.hpp"
+
+struct sqlite3;
+
+namespace planecell::io {
+
+/// Everything needed to rebuild a GlobalMap (GlobalMap::restore).
+struct StoredMap {
+  std::vector<Planecell> cells;
+  std::vector<map::Surface> surfaces;
+  std::uint32_t next_cell_id = 0;
+  std::uint32_t next_surface_id = 0;
+};
+
+class MapStore {
+ public:
+  /// Opens the store at `path`, creating it when the file does not exist. An existing file that is
+  /// not a planecell map (not SQLite, a foreign SQLite database, truncated or corrupt) raises
+  /// StorageError naming the path and is left untouched.
+  explicit MapStore(const std::filesystem::path& path);
+  ~MapStore();
+  MapStore(const MapStore&) = delete;
+  MapStore& operator=(const MapStore&) = delete;
+
+  /// Writes one integrated frame in one transaction: the frame and its pose, the report's added
+  /// cells (from `map`), relabelled and removed cells, updated and removed surfaces, the merge
+  /// events and the id counters. On failure (disk full, I/O error, duplicate frame id) the
+  /// transaction is rolled back, earlier frames stay intact, and StorageError names the path.
+  void commit_frame(std::uint64_t frame_id, const Pose& T_world_cam, const map::MergeReport& report,
+                    const map::GlobalMap& map);
+
+  /// Reads the whole map back. Throws StorageError on corrupt rows.
+  StoredMap load() const;
+
+  std::size_t frame_count() const;
+  std::vector<std::uint64_t> frame_ids() const;
+  std::optional<Pose> pose(std::uint64_t frame_id) const;
+  std::vector<map::SurfaceMerge> merge_history() const;
+  /// Ids of cells whose stored bounds overlap `box` (R*Tree query; bounds are rounded outward
+  /// to float by SQLite).
+  std::vector<std::uint32_t> cells_in_box(const map::Aabb& box) const;
+
+  const std::filesystem::path& path() const { return path_; }
+
+ private:
+  [[noreturn]] void fail(const std::string& what) const;
+  void exec(const char* sql) const;
+
+  std::filesystem::path path_;
+  sqlite3* db_ = nullptr;
+};
+
+/// Rebuilds the stored map as a GlobalMap with `config`.
+inline map::GlobalMap load_map(const MapStore& store, const MapConfig& config = {}) {
+  StoredMap stored = store.load();
+  return map::GlobalMap::restore(config, std::move(stored.cells), std::move(stored.surfaces),
+                                 stored.next_cell_id, stored.next_surface_id);
+}
+
+}  // namespace planecell::io

@@ -1,0 +1,81 @@
+/// PLY export of planecells as triangle fans (see ply_export.hpp).
+#include "io/ply_export.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+#include <fstream>
+
+#include "core/error.hpp"
+
+namespace planecell::io {
+namespace {
+
+struct ColouredVertex {
+  Eigen::Vector3f position;
+  std::array<std::uint8_t, 3> rgb;
+};
+
+template <class T>
+void put(std::ofstream& out, T value) {
+  char bytes[sizeof(T)];
+  std::memcpy(bytes, &value, sizeof(T));  // little-endian host (x86-64 / ARM64 Linux)
+  out.write(bytes, sizeof(T));
+}
+
+}  // namespace
+
+std::size_t write_planecells_ply(const std::filesystem::path& path,
+                                 const std::vector<Planecell>& cells, bool binary) {
+  std::vector<ColouredVertex> vertices;
+  std::vector<std::array<std::int32_t, 3>> faces;
+  for (const Planecell& cell : cells) {
+    const std::size_t n = cell.vertices_m.size();
+    if (!cell.has_plane || n < 3) continue;
+    std::array<std::uint8_t, 3> rgb;
+    for (int c = 0; c < 3; ++c)
+      rgb[c] = static_cast<std::uint8_t>(std::clamp(std::round(cell.mean_rgb[c]), 0.0f, 255.0f));
+    Eigen::Vector3f centre = Eigen::Vector3f::Zero();
+    for (const auto& v : cell.vertices_m) centre += v;
+    centre /= static_cast<float>(n);
+    const auto base = static_cast<std::int32_t>(vertices.size());
+    vertices.push_back({centre, rgb});
+    for (const auto& v : cell.vertices_m) vertices.push_back({v, rgb});
+    for (std::size_t k = 0; k < n; ++k)
+      faces.push_back({base, base + 1 + static_cast<std::int32_t>(k),
+                       base + 1 + static_cast<std::int32_t>((k + 1) % n)});
+  }
+
+  std::error_code ec;
+  if (path.has_parent_path()) std::filesystem::create_directories(path.parent_path(), ec);
+  std::ofstream out(path, std::ios::binary | std::ios::trunc);
+  if (!out) throw StorageError("PLY '" + path.string() + "': cannot open for writing");
+  out << "ply\nformat " << (binary ? "binary_little_endian" : "ascii") << " 1.0\n"
+      << "comment planecell cells as triangle fans\n"
+      << "element vertex " << vertices.size() << "\n"
+      << "property float x\nproperty float y\nproperty float z\n"
+      << "property uchar red\nproperty uchar green\nproperty uchar blue\n"
+      << "element face " << faces.size() << "\n"
+      << "property list uchar int vertex_indices\nend_header\n";
+  if (binary) {
+    for (const auto& v : vertices) {
+      for (int k = 0; k < 3; ++k) put(out, v.position[k]);
+      for (std::uint8_t c : v.rgb) put(out, c);
+    }
+    for (const auto& f : faces) {
+      put(out, static_cast<std::uint8_t>(3));
+      for (std::int32_t i : f) put(out, i);
+    }
+  } else {
+    for (const auto& v : vertices)
+      out << v.position.x() << ' ' << v.position.y() << ' ' << v.position.z() << ' '
+          << int(v.rgb[0]) << ' ' << int(v.rgb[1]) << ' ' << int(v.rgb[2]) << '\n';
+    for (const auto& f : faces) out << "3 " << f[0] << ' ' << f[1] << ' ' << f[2] << '\n';
+  }
+  out.flush();
+  if (!out) throw StorageError("PLY '" + path.string() + "': write failed (disk full?)");
+  return faces.size();
+}
+
+}  // namespace planecell::io

@@ -1,0 +1,234 @@
+#include "mapping/map/crf_merger.hpp"
+
+#include <Eigen/Eigenvalues>
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <numbers>
+
+#include "core/error.hpp"
+#include "mapping/map/geometry.hpp"
+
+namespace planecell::map {
+namespace {
+
+double rms_distance_m(const Plane3& plane, std::span<const Eigen::Vector3f> vertices) {
+  if (vertices.empty()) return 0.0;
+  double sum = 0.0;
+  for (const auto& v : vertices) {
+    const double d = plane.signed_distance(v.cast<double>());
+    sum += d * d;
+  }
+  return std::sqrt(sum / static_cast<double>(vertices.size()));
+}
+
+/// Midpoint of the closest pair of vertices of two polygons (the boundary point m of ψ).
+Eigen::Vector3d boundary_point(std::span<const Eigen::Vector3f> a,
+                               std::span<const Eigen::Vector3f> b) {
+  double best = std::numeric_limits<double>::infinity();
+  Eigen::Vector3d mid = Eigen::Vector3d::Zero();
+  for (const auto& va : a)
+    for (const auto& vb : b) {
+      const double d2 = (va - vb).squaredNorm();
+      if (d2 < best) {
+        best = d2;
+        mid = 0.5 * (va + vb).cast<double>();
+      }
+    }
+  return mid;
+}
+
+}  // namespace
+
+std::vector<LabelEdge> label_adjacency(const cv::Mat& labels) {
+  if (labels.empty() || labels.type() != CV_32S)
+    throw InputError("label_adjacency: label image must be a non-empty CV_32S matrix");
+  std::unordered_map<std::uint64_t, std::uint32_t> counts;
+  auto count = [&](std::int32_t p, std::int32_t q) {
+    if (p == q || p < 0 || q < 0) return;
+    const auto lo = static_cast<std::uint64_t>(std::min(p, q));
+    const auto hi = static_cast<std::uint64_t>(std::max(p, q));
+    ++counts[(lo << 32) | hi];
+  };
+  for (int r = 0; r < labels.rows; ++r) {
+    const auto* row = labels.ptr<std::int32_t>(r);
+    const auto* below = r + 1 < labels.rows ? labels.ptr<std::int32_t>(r + 1) : nullptr;
+    for (int c = 0; c < labels.cols; ++c) {
+      if (c + 1 < labels.cols) count(row[c], row[c + 1]);
+      if (below) count(row[c], below[c]);
+    }
+  }
+  std::vector<LabelEdge> out;
+  out.reserve(counts.size());
+  for (const auto& [key, n] : counts)
+    out.push_back({static_cast<std::uint32_t>(key >> 32), static_cast<std::uint32_t>(key), n});
+  std::sort(out.begin(), out.end(),
+            [](const LabelEdge& x, const LabelEdge& y) { return std::tie(x.a, x.b) < std::tie(y.a, y.b); });
+  return out;
+}
+
+double colour_similarity(const ColourHistogram& a, const ColourHistogram& b) {
+  double sum = 0.0;
+  for (int q = 0; q < kColourHistogramBins; ++q) sum += std::min(a[q], b[q]);
+  return sum;
+}
+
+double plane_residual(const Plane3& plane_i, std::span<const Eigen::Vector3f> vertices_j,
+                      double sigma_m) {
+  return rms_distance_m(plane_i, vertices_j) / sigma_m;
+}
+
+double pose_potential(double area_i_m2, double area_j_m2, double theta_ij, double theta_ji) {
+  return (area_i_m2 + area_j_m2) / (theta_ij * theta_ij + theta_ji * theta_ji + 1.0);
+}
+
+double boundary_potential(double boundary_m, double theta_c) {
+  return boundary_m / (theta_c * theta_c + 1.0);
+}
+
+std::uint32_t UnionFind::find(std::uint32_t label) {
+  auto it = parent_.find(label);
+  if (it == parent_.end()) return label;
+  std::uint32_t root = label;
+  while (true) {
+    auto p = parent_.find(root);
+    if (p == parent_.end() || p->second == root) break;
+    auto gp = parent_.find(p->second);
+    if (gp != parent_.end()) p->second = gp->second;  // path halving
+    root = p->second;
+  }
+  return root;
+}
+
+std::uint32_t UnionFind::unite(std::uint32_t a, std::uint32_t b) {
+  const std::uint32_t ra = find(a), rb = find(b);
+  if (ra == rb) return ra;
+  const std::uint32_t root = std::min(ra, rb), child = std::max(ra, rb);
+  parent_[child] = root;
+  return root;
+}
+
+void PlaneMoments::add_polygon(std::span<const Eigen::Vector3f> vertices, double area_m2) {
+  if (vertices.empty() || !(area_m2 > 0.0)) return;
+  const double w = area_m2 / static_cast<double>(vertices.size());
+  for (const auto& v : vertices) {
+    const Eigen::Vector3d p = v.cast<double>();
+    weight += w;
+    sum += w * p;
+    sum_outer += w * p * p.transpose();
+  }
+}
+
+void PlaneMoments::add(const PlaneMoments& other) {
+  weight += other.weight;
+  sum += other.sum;
+  sum_outer += other.sum_outer;
+}
+
+Plane3 PlaneMoments::fit(const Eigen::Vector3d& orientation) const {
+  const Eigen::Vector3d mean = sum / weight;
+  const Eigen::Matrix3d scatter = sum_outer / weight - mean * mean.transpose();
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver(scatter);
+  Plane3 plane;
+  plane.normal = solver.eigenvectors().col(0).normalized();
+  if (plane.normal.dot(orientation) < 0.0) plane.normal = -plane.normal;
+  plane.offset = -plane.normal.dot(mean);
+  return plane;
+}
+
+void fold_label(LabelState& into, const LabelState& from) {
+  const double w = into.histogram_weight_m2 + from.histogram_weight_m2;
+  if (w > 0.0)
+    for (int q = 0; q < kColourHistogramBins; ++q)
+      into.histogram[q] = static_cast<float>(
+          (into.histogram[q] * into.histogram_weight_m2 + from.histogram[q] * from.histogram_weight_m2) / w);
+  into.histogram_weight_m2 = w;
+  into.area_m2 += from.area_m2;
+  into.moments.add(from.moments);
+  // Refit only when the vertices span a plane (two non-negligible scatter eigenvalues).
+  if (into.moments.weight > 0.0) {
+    const Eigen::Vector3d mean = into.moments.sum / into.moments.weight;
+    const Eigen::Matrix3d scatter = into.moments.sum_outer / into.moments.weight - mean * mean.transpose();
+    const Eigen::Vector3d eig = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(scatter).eigenvalues();
+    if (eig(1) > 1e-8) into.plane = into.moments.fit(into.plane.normal);
+  }
+}
+
+CrfMerger::CrfMerger(const MapConfig& config) : config_(config) {
+  if (!(config.residual_scale_m > 0.0))
+    throw ConfigError("map.residual_scale_m: must be > 0, got " + std::to_string(config.residual_scale_m));
+  if (!(config.max_normal_angle_deg >= 0.0 && config.max_normal_angle_deg <= 90.0))
+    throw ConfigError("map.max_normal_angle_deg: must be in [0, 90], got " +
+                      std::to_string(config.max_normal_angle_deg));
+}
+
+EdgeEvaluation CrfMerger::evaluate(const MergeUnit& a, const LabelState& label_a,
+                                   const MergeUnit& b, const LabelState& label_b,
+                                   double boundary_m) const {
+  EdgeEvaluation ev;
+  const auto& va = a.cell->vertices_m;
+  const auto& vb = b.cell->vertices_m;
+  const double cos_angle = std::min(1.0, std::abs(label_a.plane.normal.dot(label_b.plane.normal)));
+  ev.angle_deg = std::acos(cos_angle) * 180.0 / std::numbers::pi;
+  ev.distance_m = std::max(rms_distance_m(label_b.plane, va), rms_distance_m(label_a.plane, vb));
+  const double delta_a = colour_similarity(a.cell->histogram, label_b.histogram);
+  const double delta_b = colour_similarity(b.cell->histogram, label_a.histogram);
+  ev.colour_similarity = std::min(delta_a, delta_b);
+  ev.in_range = ev.angle_deg <= config_.max_normal_angle_deg &&
+                ev.distance_m <= config_.max_plane_distance_m &&
+                ev.colour_similarity >= config_.min_colour_similarity;
+  const double sigma = config_.residual_scale_m;
+  const double phi = pose_potential(a.area_m2, b.area_m2, plane_residual(a.cell->plane, vb, sigma),
+                                    plane_residual(b.cell->plane, va, sigma));
+  const Eigen::Vector3d m = boundary_point(va, vb);
+  const double s = a.cell->plane.normal.dot(b.cell->plane.normal) < 0.0 ? -1.0 : 1.0;
+  const double theta_c =
+      std::abs(a.cell->plane.signed_distance(m) - s * b.cell->plane.signed_distance(m)) / sigma;
+  ev.gain = delta_a + delta_b + phi + boundary_potential(boundary_m, theta_c);
+  return ev;
+}
+
+std::vector<std::pair<std::uint32_t, std::uint32_t>> CrfMerger::merge(
+    std::span<const MergeUnit> units, std::span<const MergeEdge> edges,
+    std::unordered_map<std::uint32_t, LabelState>& labels, UnionFind& union_find) const {
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> merges;
+  struct Candidate {
+    double gain;
+    std::size_t edge;
+  };
+  std::vector<Candidate> candidates;
+  for (int round = 0; round < 64; ++round) {
+    candidates.clear();
+    for (std::size_t e = 0; e < edges.size(); ++e) {
+      const auto& edge = edges[e];
+      const std::uint32_t la = union_find.find(units[edge.a].label);
+      const std::uint32_t lb = union_find.find(units[edge.b].label);
+      if (la == lb) continue;
+      const auto ev = evaluate(units[edge.a], labels.at(la), units[edge.b], labels.at(lb), edge.boundary_m);
+      if (ev.in_range) candidates.push_back({ev.gain, e});
+    }
+    if (candidates.empty()) break;
+    std::stable_sort(candidates.begin(), candidates.end(),
+                     [](const Candidate& x, const Candidate& y) { return x.gain > y.gain; });
+    bool merged_any = false;
+    for (const auto& cand : candidates) {
+      const auto& edge = edges[cand.edge];
+      const std::uint32_t la = union_find.find(units[edge.a].label);
+      const std::uint32_t lb = union_find.find(units[edge.b].label);
+      if (la == lb) continue;
+      // Planes may have moved since the round started: re-check the variation range.
+      if (!evaluate(units[edge.a], labels.at(la), units[edge.b], labels.at(lb), edge.boundary_m).in_range)
+        continue;
+      const std::uint32_t root = union_find.unite(la, lb);
+      const std::uint32_t absorbed = root == la ? lb : la;
+      fold_label(labels.at(root), labels.at(absorbed));
+      labels.erase(absorbed);
+      merges.emplace_back(absorbed, root);
+      merged_any = true;
+    }
+    if (!merged_any) break;
+  }
+  return merges;
+}
+
+}  // namespace planecell::map

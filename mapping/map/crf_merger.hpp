@@ -1,0 +1,133 @@
+#pragma once
+/// Incremental CRF merging of coplanar planecells into surfaces (paper §5.2, Eq. CRFFunction):
+///   E = Σ_i δ_i(y_i) + Σ_{j∈N(i)} φ_ij(y_i, y_j) + Σ_{c∈B(i)} ψ_i(y_c),
+/// maximised by the paper's circular greedy merging within a variation range (MapConfig).
+#include <cstdint>
+#include <opencv2/core/mat.hpp>
+#include <span>
+#include <unordered_map>
+#include <utility>
+#include <vector>
+
+#include "core/config/map_config.hpp"
+#include "core/planecell.hpp"
+
+namespace planecell::map {
+
+/// Two segments that touch in a label image, with the length of their shared boundary.
+struct LabelEdge {
+  std::uint32_t a = 0;  ///< smaller label
+  std::uint32_t b = 0;  ///< larger label
+  std::uint32_t boundary_px = 0;  ///< 4-connected pixel pairs (a, b) across the boundary
+  bool operator==(const LabelEdge&) const = default;
+};
+
+/// Adjacent label pairs of a CV_32S label image (negative labels = no segment, ignored).
+/// boundary_px counts horizontally and vertically neighbouring pixel pairs with labels {a, b}.
+/// Sorted by (a, b). Throws InputError if `labels` is empty or not CV_32S.
+std::vector<LabelEdge> label_adjacency(const cv::Mat& labels);
+
+/// Unary δ: histogram intersection δ(h_a, h_b) = Σ_q min(h_a(q), h_b(q)) ∈ [0, 1] for histograms
+/// normalised to sum 1 (1 = identical colour distributions).
+double colour_similarity(const ColourHistogram& a, const ColourHistogram& b);
+
+/// θ'_i(x_j): RMS distance of x_j's polygon vertices to x_i's plane, in units of σ:
+///   θ'_i(x_j) = sqrt( (1/K) Σ_k (n_i·v_jk + e_i)² ) / σ   (dimensionless; σ = residual_scale_m).
+double plane_residual(const Plane3& plane_i, std::span<const Eigen::Vector3f> vertices_j,
+                      double sigma_m);
+
+/// Pairwise φ_ij = |x_i ∪ x_j| / (θ'_i(x_j)² + θ'_j(x_i)² + 1), |x_i ∪ x_j| = area_i + area_j (m²).
+double pose_potential(double area_i_m2, double area_j_m2, double theta_ij, double theta_ji);
+
+/// Boundary ψ = |c| / (θ'(c)² + 1): |c| the shared boundary length (m), θ'(c) the step between the
+/// two planes across the boundary, |d_i(m) − s·d_j(m)| / σ at the boundary point m (the midpoint
+/// of the closest vertex pair; d the signed plane distances, s = sign(n_i·n_j)).
+double boundary_potential(double boundary_m, double theta_c);
+
+/// Disjoint-set forest over surface labels (path halving; the smaller label becomes the root, so
+/// older surfaces absorb newer ones).
+class UnionFind {
+ public:
+  std::uint32_t find(std::uint32_t label);
+  /// Joins the sets of a and b; returns the surviving root.
+  std::uint32_t unite(std::uint32_t a, std::uint32_t b);
+
+ private:
+  std::unordered_map<std::uint32_t, std::uint32_t> parent_;
+};
+
+/// Weighted second moments of the vertices behind a surface: the plane is their least-squares fit.
+struct PlaneMoments {
+  double weight = 0.0;                                   ///< Σ w
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero();         ///< Σ w p
+  Eigen::Matrix3d sum_outer = Eigen::Matrix3d::Zero();   ///< Σ w p pᵀ
+
+  /// Adds a polygon with total weight area_m2 spread evenly over its vertices.
+  void add_polygon(std::span<const Eigen::Vector3f> vertices, double area_m2);
+  void add(const PlaneMoments& other);
+  /// Least-squares plane: normal = smallest eigenvector of the weighted scatter Σw(p−p̄)(p−p̄)ᵀ,
+  /// oriented like `orientation` (n·orientation ≥ 0), offset e = −n·p̄.
+  Plane3 fit(const Eigen::Vector3d& orientation) const;
+  bool operator==(const PlaneMoments&) const = default;
+};
+
+/// State of one label during merging (a surface of the map or a fresh label of a new cell).
+struct LabelState {
+  Plane3 plane;
+  PlaneMoments moments;
+  ColourHistogram histogram{};  ///< weighted mean of the members' histograms
+  double histogram_weight_m2 = 0.0;
+  double area_m2 = 0.0;
+};
+
+/// A planecell taking part in a merge, with its current label.
+struct MergeUnit {
+  std::uint32_t label = 0;
+  const Planecell* cell = nullptr;  ///< world frame
+  double area_m2 = 0.0;
+};
+
+/// A neighbour pair of units (indices into the unit list) with its shared boundary length.
+struct MergeEdge {
+  std::uint32_t a = 0;
+  std::uint32_t b = 0;
+  double boundary_m = 0.0;
+};
+
+/// Energy terms of merging an edge's two labels, and whether the pair is inside the variation range.
+struct EdgeEvaluation {
+  bool in_range = false;
+  double angle_deg = 0.0;         ///< between the two labels' plane normals
+  double distance_m = 0.0;        ///< max of the RMS vertex distances to the other label's plane
+  double colour_similarity = 0.0; ///< min of the two cell-vs-surface δ
+  double gain = 0.0;              ///< δ_a + δ_b + φ + ψ: energy gained by giving both one label
+};
+
+/// The circular greedy maximiser of E.
+class CrfMerger {
+ public:
+  explicit CrfMerger(const MapConfig& config);
+
+  /// Evaluates an edge under the current labels' states.
+  EdgeEvaluation evaluate(const MergeUnit& a, const LabelState& label_a, const MergeUnit& b,
+                          const LabelState& label_b, double boundary_m) const;
+
+  /// Circular greedy merging: each round evaluates every edge whose units carry different labels,
+  /// visits them by decreasing gain, and merges (union-find) those still inside the variation
+  /// range under the labels' updated planes; rounds repeat until one merges nothing.
+  /// `labels` holds the state of every label used by `units` and is updated in place (a merged
+  /// label's state is folded into its root's). Returns the merges as (absorbed, root) pairs in order.
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> merge(
+      std::span<const MergeUnit> units, std::span<const MergeEdge> edges,
+      std::unordered_map<std::uint32_t, LabelState>& labels, UnionFind& union_find) const;
+
+  const MapConfig& config() const { return config_; }
+
+ private:
+  MapConfig config_;
+};
+
+/// Folds `from` into `into`: moments and histograms add (area-weighted), plane refitted.
+void fold_label(LabelState& into, const LabelState& from);
+
+}  // namespace planecell::map

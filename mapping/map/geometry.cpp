@@ -1,0 +1,86 @@
+#include "mapping/map/geometry.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+namespace planecell::map {
+
+namespace bg = boost::geometry;
+
+Aabb bounds_of(std::span<const Eigen::Vector3f> vertices) {
+  Aabb box;
+  for (const auto& v : vertices) box.extend(v.cast<double>());
+  return box;
+}
+
+PlaneBasis make_basis(const Plane3& plane, const Eigen::Vector3d& near_point) {
+  const Eigen::Vector3d n = plane.normal.normalized();
+  // u: the world axis least aligned with n, made orthogonal to n.
+  Eigen::Vector3d axis = Eigen::Vector3d::UnitX();
+  if (std::abs(n.x()) > std::abs(n.y()) && std::abs(n.x()) > std::abs(n.z()))
+    axis = Eigen::Vector3d::UnitY();
+  PlaneBasis basis;
+  basis.u = (axis - axis.dot(n) * n).normalized();
+  basis.v = n.cross(basis.u);
+  basis.origin = near_point - plane.signed_distance(near_point) * n;
+  return basis;
+}
+
+double polygon_area_m2(std::span<const Eigen::Vector3f> vertices) {
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+  for (std::size_t k = 0; k < vertices.size(); ++k) {
+    const Eigen::Vector3d a = vertices[k].cast<double>();
+    const Eigen::Vector3d b = vertices[(k + 1) % vertices.size()].cast<double>();
+    sum += a.cross(b);
+  }
+  return 0.5 * sum.norm();
+}
+
+Eigen::Vector3d vertex_centroid(std::span<const Eigen::Vector3f> vertices) {
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+  for (const auto& v : vertices) sum += v.cast<double>();
+  return vertices.empty() ? sum : Eigen::Vector3d(sum / static_cast<double>(vertices.size()));
+}
+
+Polygon2 to_polygon2(std::span<const Eigen::Vector3f> vertices, const PlaneBasis& basis) {
+  Polygon2 poly;
+  for (const auto& v : vertices) {
+    const Eigen::Vector2d st = basis.to_2d(v.cast<double>());
+    bg::append(poly.outer(), Point2(st.x(), st.y()));
+  }
+  bg::correct(poly);
+  return poly;
+}
+
+double point_segment_distance(const Eigen::Vector3d& p, const Eigen::Vector3d& a,
+                              const Eigen::Vector3d& b) {
+  const Eigen::Vector3d ab = b - a;
+  const double len2 = ab.squaredNorm();
+  const double t = len2 > 0.0 ? std::clamp((p - a).dot(ab) / len2, 0.0, 1.0) : 0.0;
+  return (a + t * ab - p).norm();
+}
+
+double distance_to_polygon(const Eigen::Vector3d& point, const Plane3& plane,
+                           std::span<const Eigen::Vector3f> vertices) {
+  if (vertices.size() < 3) return std::numeric_limits<double>::infinity();
+  const PlaneBasis basis = make_basis(plane, point);
+  const Polygon2 poly = to_polygon2(vertices, basis);
+  // basis.origin is the projection of `point`, i.e. (0, 0) in the basis.
+  if (bg::covered_by(Point2(0.0, 0.0), poly)) return std::abs(plane.signed_distance(point));
+  double best = std::numeric_limits<double>::infinity();
+  for (std::size_t k = 0; k < vertices.size(); ++k)
+    best = std::min(best, point_segment_distance(point, vertices[k].cast<double>(),
+                                                 vertices[(k + 1) % vertices.size()].cast<double>()));
+  return best;
+}
+
+double polygon_gap_m(const Plane3& plane_a, std::span<const Eigen::Vector3f> a,
+                     const Plane3& plane_b, std::span<const Eigen::Vector3f> b) {
+  double best = std::numeric_limits<double>::infinity();
+  for (const auto& v : a) best = std::min(best, distance_to_polygon(v.cast<double>(), plane_b, b));
+  for (const auto& v : b) best = std::min(best, distance_to_polygon(v.cast<double>(), plane_a, a));
+  return best;
+}
+
+}  // namespace planecell::map

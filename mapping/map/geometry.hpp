@@ -1,0 +1,90 @@
+#pragma once
+/// Geometry of planar polygons in 3D for the global map: plane bases, areas, distances, bounds,
+/// and the 2D polygon types (Boost.Geometry) used for footprint unions on a surface's plane.
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <boost/geometry.hpp>
+#include <boost/geometry/geometries/point_xy.hpp>
+#include <boost/geometry/geometries/polygon.hpp>
+#include <boost/geometry/geometries/multi_polygon.hpp>
+#include <limits>
+#include <span>
+#include <vector>
+
+#include "core/plane.hpp"
+
+namespace planecell::map {
+
+using Point2 = boost::geometry::model::d2::point_xy<double>;
+using Polygon2 = boost::geometry::model::polygon<Point2>;  ///< clockwise, closed
+using MultiPolygon2 = boost::geometry::model::multi_polygon<Polygon2>;
+
+/// Axis-aligned box in 3D (m). Empty when min > max.
+struct Aabb {
+  Eigen::Vector3d min = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity());
+  Eigen::Vector3d max = Eigen::Vector3d::Constant(-std::numeric_limits<double>::infinity());
+
+  bool empty() const { return (min.array() > max.array()).any(); }
+  void extend(const Eigen::Vector3d& p) {
+    min = min.cwiseMin(p);
+    max = max.cwiseMax(p);
+  }
+  void extend(const Aabb& o) {
+    min = min.cwiseMin(o.min);
+    max = max.cwiseMax(o.max);
+  }
+  Aabb inflated(double margin_m) const {
+    return {(min.array() - margin_m).matrix(), (max.array() + margin_m).matrix()};
+  }
+  bool overlaps(const Aabb& o) const {
+    return (min.array() <= o.max.array()).all() && (o.min.array() <= max.array()).all();
+  }
+  bool operator==(const Aabb&) const = default;
+};
+
+/// Bounds of a polygon's vertices.
+Aabb bounds_of(std::span<const Eigen::Vector3f> vertices);
+
+/// Orthonormal 2D frame on a plane: X = origin + s·u + t·v, with u × v = normal.
+struct PlaneBasis {
+  Eigen::Vector3d origin = Eigen::Vector3d::Zero();
+  Eigen::Vector3d u = Eigen::Vector3d::UnitX();
+  Eigen::Vector3d v = Eigen::Vector3d::UnitY();
+
+  /// Orthogonal projection (s, t) = ((X − o)·u, (X − o)·v).
+  Eigen::Vector2d to_2d(const Eigen::Vector3d& x) const {
+    const Eigen::Vector3d d = x - origin;
+    return {d.dot(u), d.dot(v)};
+  }
+  Eigen::Vector3d to_3d(const Eigen::Vector2d& st) const { return origin + st.x() * u + st.y() * v; }
+  bool operator==(const PlaneBasis&) const = default;
+};
+
+/// Basis on `plane` with origin at the projection of `near_point` onto the plane.
+PlaneBasis make_basis(const Plane3& plane, const Eigen::Vector3d& near_point);
+
+/// Polygon area (m²) by Newell's vector area: A = ½ |Σ_k v_k × v_{k+1}|.
+double polygon_area_m2(std::span<const Eigen::Vector3f> vertices);
+
+/// Mean of the vertices (m).
+Eigen::Vector3d vertex_centroid(std::span<const Eigen::Vector3f> vertices);
+
+/// The polygon projected orthogonally into `basis`, corrected (closed, clockwise).
+Polygon2 to_polygon2(std::span<const Eigen::Vector3f> vertices, const PlaneBasis& basis);
+
+/// Distance (m) of `point` to the planar polygon `vertices` lying on `plane`:
+///   the paper's point-to-plane distance |n·p + e| when p's projection onto the plane falls inside
+///   the polygon; otherwise the distance to the nearest point of the polygon's boundary edges.
+double distance_to_polygon(const Eigen::Vector3d& point, const Plane3& plane,
+                           std::span<const Eigen::Vector3f> vertices);
+
+/// Smallest gap (m) between two planar polygons, approximated by the vertex-to-polygon distances
+/// both ways: min(min_k dist(a_k, B), min_k dist(b_k, A)). 0 when a vertex of one lies on the other.
+double polygon_gap_m(const Plane3& plane_a, std::span<const Eigen::Vector3f> a,
+                     const Plane3& plane_b, std::span<const Eigen::Vector3f> b);
+
+/// Distance (m) of a point to the segment [a, b].
+double point_segment_distance(const Eigen::Vector3d& p, const Eigen::Vector3d& a,
+                              const Eigen::Vector3d& b);
+
+}  // namespace planecell::map

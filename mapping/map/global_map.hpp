@@ -1,0 +1,182 @@
+#pragma once
+/// The global planecell map: world-frame cells grouped into surfaces by the incremental CRF merger
+/// (paper §5.2), with a spatial index, footprint fusion (map size grows with area, not frames),
+/// planner queries and memory accounting.
+#include <cstdint>
+#include <map>
+#include <opencv2/core/mat.hpp>
+#include <optional>
+#include <span>
+#include <unordered_map>
+#include <vector>
+
+#include "core/config/map_config.hpp"
+#include "core/planecell.hpp"
+#include "core/pose.hpp"
+#include "mapping/map/crf_merger.hpp"
+#include "mapping/map/geometry.hpp"
+#include "mapping/map/spatial_index.hpp"
+
+namespace planecell::map {
+
+/// Edge of a footprint tile on a surface's plane (m): footprints are stored clipped to square
+/// tiles of the plane basis so that fusing a cell touches a bounded amount of polygon.
+inline constexpr double kFootprintTileM = 8.0;
+
+/// Key of a footprint tile: (floor(s / tile), floor(t / tile)) packed as (s_index << 32 | t_index).
+using TileKey = std::int64_t;
+
+/// A surface: coplanar cells sharing one CRF label.
+struct Surface {
+  std::uint32_t id = 0;
+  Plane3 plane;                  ///< least-squares plane of all integrated cells (world)
+  PlaneMoments moments;          ///< area-weighted vertex moments behind `plane`
+  ColourHistogram histogram{};   ///< area-weighted mean of the integrated cells' histograms
+  double histogram_weight_m2 = 0.0;
+  Eigen::Vector3f mean_rgb = Eigen::Vector3f::Zero();  ///< area-weighted mean colour (0..255 RGB)
+  double observed_area_m2 = 0.0;  ///< Σ area of every integrated cell, fused ones included
+  double area_m2 = 0.0;           ///< area of the footprint (union of all integrated cells)
+  Aabb bounds;                    ///< bounds of every integrated cell's vertices
+  PlaneBasis basis;               ///< 2D frame of the footprint (fixed at creation)
+  std::map<TileKey, MultiPolygon2> footprint;  ///< union of the cells in `basis`, per tile
+  std::vector<std::uint32_t> cells;            ///< stored member cells (map cell ids)
+  std::uint32_t observations = 0;              ///< integrated cells, fused ones included
+};
+
+/// Two surfaces became one (an event for the map consumers).
+struct SurfaceMerge {
+  std::uint64_t frame_id = 0;
+  std::uint32_t absorbed = 0;  ///< surface that no longer exists
+  std::uint32_t into = 0;      ///< surface that now holds its cells
+  bool operator==(const SurfaceMerge&) const = default;
+};
+
+/// What one integrate() call changed.
+struct MergeReport {
+  std::uint64_t frame_id = 0;
+  std::size_t input_cells = 0;    ///< cells handed in
+  std::size_t rejected_cells = 0; ///< planeless, degenerate or beyond max_range_m
+  std::size_t fused_cells = 0;    ///< re-observations folded into a surface, not stored
+  std::vector<std::uint32_t> added_cells;       ///< new stored cells (map ids)
+  std::vector<std::uint32_t> relabelled_cells;  ///< existing cells whose surface changed
+  std::vector<std::uint32_t> removed_cells;     ///< cells deleted from the map (none yet: cells
+                                                ///< are only added; kept for the store/LCM API)
+  std::vector<std::uint32_t> updated_surfaces;  ///< surfaces created or changed (alive, sorted)
+  std::vector<std::uint32_t> removed_surfaces;  ///< surfaces absorbed by merges
+  std::vector<SurfaceMerge> surface_merges;     ///< in merge order
+  double merge_ms = 0.0;                        ///< wall time of integrate()
+};
+
+/// Distance of a point to the nearest planecell.
+struct CellDistance {
+  std::uint32_t cell_id = 0;
+  double distance_m = 0.0;
+};
+
+/// The ground under a point.
+struct GroundHit {
+  std::uint32_t surface_id = 0;
+  double height_above_m = 0.0;          ///< along "up", point minus ground
+  Eigen::Vector3d ground_point = Eigen::Vector3d::Zero();
+};
+
+/// A 2D grid of maximum heights over a region of the ground plane.
+struct HeightMap {
+  Eigen::Vector3d axis_a = Eigen::Vector3d::UnitX();  ///< grid columns run along a
+  Eigen::Vector3d axis_b = Eigen::Vector3d::UnitZ();  ///< grid rows run along b
+  Eigen::Vector2d origin_ab = Eigen::Vector2d::Zero();  ///< (a, b) of the grid's corner (m)
+  double resolution_m = 0.1;
+  cv::Mat height_m;  ///< CV_32F rows × cols, max up·X of the cells over each grid square; NaN = none
+};
+
+class GlobalMap {
+ public:
+  /// Throws ConfigError on an invalid configuration (non-positive scales, zero up vector).
+  explicit GlobalMap(const MapConfig& config = {});
+
+  /// Integrates one frame's world-frame cells (map::to_world) seen from pose T_world_cam.
+  /// `image_adjacency` (label_adjacency of the frame's label image, in the cells' extraction ids)
+  /// gives the same-frame neighbours; when empty, same-frame neighbours are found in 3D. Earlier
+  /// cells near the new ones come from the spatial index. Runs the CRF merger, then fuses every
+  /// new cell into its surface's footprint: a cell adding less than fuse_new_area_fraction of its
+  /// own area is not stored. Throws InputError on a bad pose.
+  MergeReport integrate(std::uint64_t frame_id, const Pose& T_world_cam,
+                        std::span<const Planecell> cells_world,
+                        std::span<const LabelEdge> image_adjacency = {});
+
+  const std::unordered_map<std::uint32_t, Planecell>& cells() const { return cells_; }
+  const std::unordered_map<std::uint32_t, Surface>& surfaces() const { return surfaces_; }
+  /// The stored cell / surface with this id, nullptr when absent (inline: io::MapStore uses them
+  /// without linking planecell_mapping).
+  const Planecell* cell(std::uint32_t id) const {
+    auto it = cells_.find(id);
+    return it == cells_.end() ? nullptr : &it->second;
+  }
+  const Surface* surface(std::uint32_t id) const {
+    auto it = surfaces_.find(id);
+    return it == surfaces_.end() ? nullptr : &it->second;
+  }
+  const MapConfig& config() const { return config_; }
+  std::uint32_t next_cell_id() const { return next_cell_id_; }
+  std::uint32_t next_surface_id() const { return next_surface_id_; }
+
+  /// Ids of stored cells whose bounds overlap `box` (sorted).
+  std::vector<std::uint32_t> cells_near(const Aabb& box) const;
+
+  /// Nearest stored cell within max_distance_m (distance_to_polygon: point-to-plane |n·p + e|
+  /// inside the polygon, distance to the boundary outside). nullopt when none is that close.
+  std::optional<CellDistance> nearest_cell(const Eigen::Vector3d& point, double max_distance_m) const;
+
+  /// The ground surface under `point`: among surfaces whose normal is within max_ground_tilt_deg of
+  /// "up", the one whose plane is closest below the point (0 ≤ height ≤ max_drop_m along up) and
+  /// whose footprint contains the point's vertical projection.
+  std::optional<GroundHit> ground_under(const Eigen::Vector3d& point, double max_drop_m = 10.0) const;
+
+  /// Height map of the region [a0, a0 + cols·res) × [b0, b0 + rows·res) of the horizontal axes
+  /// (a, b) ⟂ up (for up = (0, −1, 0): a = x, b = z). Each square holds the max height up·X of
+  /// the cells above its centre (sloped cells: the plane's height at the centre; near-vertical
+  /// cells: their edges, sampled). Throws InputError on a non-positive size or resolution.
+  HeightMap height_map(const Eigen::Vector2d& origin_ab, int cols, int rows, double resolution_m) const;
+
+  /// Heap bytes of cells, surfaces and the index (requested sizes: hash nodes and buckets,
+  /// vectors' capacity, footprint polygons; allocator headers not included).
+  std::size_t map_bytes() const;
+
+  /// Rebuilds a map from stored cells and surfaces (io::MapStore). Throws StorageError when a
+  /// cell names a missing surface.
+  static GlobalMap restore(const MapConfig& config, std::vector<Planecell> cells,
+                           std::vector<Surface> surfaces, std::uint32_t next_cell_id,
+                           std::uint32_t next_surface_id);
+
+  /// True when both maps hold exactly the same cells, surfaces and id counters.
+  bool same_content(const GlobalMap& other) const;
+
+  /// World "up" (unit).
+  Eigen::Vector3d up() const { return up_; }
+
+ private:
+  /// Folds `absorbed` into `into` (cells relabelled, footprint re-tiled in into's basis).
+  void absorb_surface(Surface& into, Surface& absorbed, MergeReport& report);
+
+  MapConfig config_;
+  Eigen::Vector3d up_;
+  CrfMerger merger_;
+  SpatialIndex index_;
+  std::unordered_map<std::uint32_t, Planecell> cells_;
+  std::unordered_map<std::uint32_t, Surface> surfaces_;
+  std::uint32_t next_cell_id_ = 0;
+  std::uint32_t next_surface_id_ = 0;
+};
+
+/// Adds polygon `poly` (in the footprint's basis) to a tiled footprint: clipped to each tile it
+/// covers and united with that tile's polygons (Boost.Geometry). Returns the area added (m²).
+double add_to_footprint(std::map<TileKey, MultiPolygon2>& footprint, const Polygon2& poly,
+                        double simplify_m);
+
+/// Area of a tiled footprint (m²).
+double footprint_area_m2(const std::map<TileKey, MultiPolygon2>& footprint);
+
+/// True when (s, t) lies in the footprint (boundary included).
+bool footprint_contains(const std::map<TileKey, MultiPolygon2>& footprint, double s, double t);
+
+}  // namespace planecell::map

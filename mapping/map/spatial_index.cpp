@@ -1,0 +1,84 @@
+#include "mapping/map/spatial_index.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "core/error.hpp"
+
+namespace planecell::map {
+namespace {
+
+/// Packs three signed 21-bit bucket coordinates into one key.
+std::uint64_t bucket_key(std::int64_t x, std::int64_t y, std::int64_t z) {
+  constexpr std::int64_t kBias = 1 << 20;
+  constexpr std::uint64_t kMask = (1u << 21) - 1;
+  return (static_cast<std::uint64_t>(x + kBias) & kMask) |
+         ((static_cast<std::uint64_t>(y + kBias) & kMask) << 21) |
+         ((static_cast<std::uint64_t>(z + kBias) & kMask) << 42);
+}
+
+template <class Map>
+std::size_t hash_map_bytes(const Map& m) {
+  return m.bucket_count() * sizeof(void*) + m.size() * (sizeof(typename Map::value_type) + sizeof(void*));
+}
+
+}  // namespace
+
+SpatialIndex::SpatialIndex(double bucket_m) : bucket_m_(bucket_m) {
+  if (!(bucket_m > 0.0) || !std::isfinite(bucket_m))
+    throw ConfigError("map.index_cell_m: must be a positive finite length, got " +
+                      std::to_string(bucket_m));
+}
+
+template <class F>
+void SpatialIndex::for_each_bucket(const Aabb& box, F&& f) const {
+  if (box.empty()) return;
+  const Eigen::Vector3d lo = (box.min / bucket_m_).array().floor();
+  const Eigen::Vector3d hi = (box.max / bucket_m_).array().floor();
+  for (auto x = static_cast<std::int64_t>(lo.x()); x <= static_cast<std::int64_t>(hi.x()); ++x)
+    for (auto y = static_cast<std::int64_t>(lo.y()); y <= static_cast<std::int64_t>(hi.y()); ++y)
+      for (auto z = static_cast<std::int64_t>(lo.z()); z <= static_cast<std::int64_t>(hi.z()); ++z)
+        f(bucket_key(x, y, z));
+}
+
+void SpatialIndex::insert(std::uint32_t id, const Aabb& box) {
+  if (box.empty() || !box.min.allFinite() || !box.max.allFinite()) return;
+  boxes_[id] = box;
+  for_each_bucket(box, [&](std::uint64_t key) { buckets_[key].push_back(id); });
+}
+
+void SpatialIndex::remove(std::uint32_t id, const Aabb& box) {
+  if (boxes_.erase(id) == 0) return;
+  for_each_bucket(box, [&](std::uint64_t key) {
+    auto it = buckets_.find(key);
+    if (it == buckets_.end()) return;
+    std::erase(it->second, id);
+    if (it->second.empty()) buckets_.erase(it);
+  });
+}
+
+std::vector<std::uint32_t> SpatialIndex::query(const Aabb& box) const {
+  std::vector<std::uint32_t> out;
+  for_each_bucket(box, [&](std::uint64_t key) {
+    auto it = buckets_.find(key);
+    if (it == buckets_.end()) return;
+    for (std::uint32_t id : it->second)
+      if (boxes_.at(id).overlaps(box)) out.push_back(id);
+  });
+  std::sort(out.begin(), out.end());
+  out.erase(std::unique(out.begin(), out.end()), out.end());
+  return out;
+}
+
+void SpatialIndex::clear() {
+  buckets_.clear();
+  boxes_.clear();
+}
+
+std::size_t SpatialIndex::bytes() const {
+  std::size_t total = hash_map_bytes(buckets_) + hash_map_bytes(boxes_);
+  for (const auto& [key, ids] : buckets_) total += ids.capacity() * sizeof(std::uint32_t);
+  return total;
+}
+
+}  // namespace planecell::map

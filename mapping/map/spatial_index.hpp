@@ -1,0 +1,39 @@
+#pragma once
+/// Spatial index of the global map: a hashed 3D grid of cell bounds. Answers "ids whose bounds
+/// overlap this box" touching only the grid buckets the box covers, so per-frame work depends on
+/// the neighbourhood of the new cells, not on the size of the map.
+#include <cstdint>
+#include <unordered_map>
+#include <vector>
+
+#include "mapping/map/geometry.hpp"
+
+namespace planecell::map {
+
+class SpatialIndex {
+ public:
+  /// `bucket_m`: edge length of a grid bucket (m); must be > 0 (ConfigError otherwise).
+  explicit SpatialIndex(double bucket_m = 2.0);
+
+  /// Registers `id` in every bucket its box touches.
+  void insert(std::uint32_t id, const Aabb& box);
+  /// Removes `id` (registered with the same box).
+  void remove(std::uint32_t id, const Aabb& box);
+  /// Ids registered in the buckets `box` touches whose stored box overlaps `box`; sorted, unique.
+  std::vector<std::uint32_t> query(const Aabb& box) const;
+
+  std::size_t size() const { return boxes_.size(); }
+  void clear();
+  /// Heap bytes of the buckets, their id vectors and the stored boxes (requested sizes).
+  std::size_t bytes() const;
+
+ private:
+  template <class F>
+  void for_each_bucket(const Aabb& box, F&& f) const;
+
+  double bucket_m_;
+  std::unordered_map<std::uint64_t, std::vector<std::uint32_t>> buckets_;
+  std::unordered_map<std::uint32_t, Aabb> boxes_;
+};
+
+}  // namespace planecell::map

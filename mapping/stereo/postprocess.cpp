@@ -1,0 +1,145 @@
+/// Disparity selection on the aggregated cost S (Eq. 2) and the post-filters: winner-take-all,
+/// uniqueness ratio, sub-pixel parabola, left-right check, small-speckle removal.
+#include <limits>
+#include <opencv2/calib3d.hpp>
+
+#include "mapping/stereo/sgm_detail.hpp"
+
+#if defined(__AVX2__)
+#include <immintrin.h>
+#endif
+
+namespace planecell::stereo::detail {
+namespace {
+
+constexpr std::uint16_t kMaxCost = 0xFFFF;
+constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
+
+/// Right-image winners from the same volume (no second SGM run): for every right pixel x_r,
+/// key(x_r) = min_d (S(x_r + d, d) · 2^16 + d), i.e. the lowest cost and, on ties, the smallest d.
+/// Stored reversed: keys[W − 1 − x_r], so that for a fixed x the d lanes are contiguous.
+void right_winners(const std::uint16_t* S, int width, int dp, std::uint32_t* keys) {
+  std::fill(keys, keys + width + dp, 0xFFFFFFFFu);
+#if defined(__AVX2__)
+  // x steps by 16 inside a d block so that consecutive read-modify-writes never overlap.
+  const __m256i lane = _mm256_setr_epi16(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
+  for (int d0 = 0; d0 < dp; d0 += 16) {
+    const __m256i dv = _mm256_add_epi16(lane, _mm256_set1_epi16(static_cast<short>(d0)));
+    for (int phase = 0; phase < 16; ++phase) {
+      for (int x = phase; x < width; x += 16) {
+        const __m256i s = _mm256_loadu_si256(
+            reinterpret_cast<const __m256i*>(S + static_cast<std::size_t>(x) * dp + d0));
+        const __m256i lo = _mm256_unpacklo_epi16(dv, s);  // lanes 0-3, 8-11
+        const __m256i hi = _mm256_unpackhi_epi16(dv, s);  // lanes 4-7, 12-15
+        const __m256i k0 = _mm256_permute2x128_si256(lo, hi, 0x20);  // lanes 0-7
+        const __m256i k1 = _mm256_permute2x128_si256(lo, hi, 0x31);  // lanes 8-15
+        std::uint32_t* dst = keys + (width - 1 - x) + d0;
+        __m256i* p0 = reinterpret_cast<__m256i*>(dst);
+        __m256i* p1 = reinterpret_cast<__m256i*>(dst + 8);
+        _mm256_storeu_si256(p0, _mm256_min_epu32(_mm256_loadu_si256(p0), k0));
+        _mm256_storeu_si256(p1, _mm256_min_epu32(_mm256_loadu_si256(p1), k1));
+      }
+    }
+  }
+#else
+  for (int x = 0; x < width; ++x) {
+    const std::uint16_t* s = S + static_cast<std::size_t>(x) * dp;
+    std::uint32_t* dst = keys + (width - 1 - x);
+    for (int d = 0; d < dp; ++d)
+      dst[d] = std::min(dst[d], (static_cast<std::uint32_t>(s[d]) << 16) | static_cast<std::uint32_t>(d));
+  }
+#endif
+}
+
+/// min_d s[d] over the padded range.
+inline std::uint16_t min_cost(const std::uint16_t* s, int dp) {
+#if defined(__AVX2__)
+  __m256i m = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(s));
+  for (int d = 16; d < dp; d += 16)
+    m = _mm256_min_epu16(m, _mm256_loadu_si256(reinterpret_cast<const __m256i*>(s + d)));
+  const __m128i h = _mm_min_epu16(_mm256_castsi256_si128(m), _mm256_extracti128_si256(m, 1));
+  return static_cast<std::uint16_t>(_mm_cvtsi128_si32(_mm_minpos_epu16(h)));
+#else
+  std::uint16_t m = kMaxCost;
+  for (int d = 0; d < dp; ++d) m = std::min(m, s[d]);
+  return m;
+#endif
+}
+
+/// First d with s[d] == value (value is present).
+inline int first_index_of(const std::uint16_t* s, int dp, std::uint16_t value) {
+#if defined(__AVX2__)
+  const __m256i v = _mm256_set1_epi16(static_cast<short>(value));
+  for (int d = 0; d < dp; d += 16) {
+    const int mask = _mm256_movemask_epi8(
+        _mm256_cmpeq_epi16(_mm256_loadu_si256(reinterpret_cast<const __m256i*>(s + d)), v));
+    if (mask != 0) return d + std::countr_zero(static_cast<unsigned>(mask)) / 2;
+  }
+  return 0;
+#else
+  for (int d = 0; d < dp; ++d)
+    if (s[d] == value) return d;
+  return 0;
+#endif
+}
+
+}  // namespace
+
+void select_row(std::uint16_t* S, int width, const SgmConfig& config, float* out) {
+  const int d_max = config.max_disparity;
+  const int dp = padded_disparities(d_max);
+  if (d_max < dp)
+    for (int x = 0; x < width; ++x)
+      std::fill(S + static_cast<std::size_t>(x) * dp + d_max, S + static_cast<std::size_t>(x + 1) * dp,
+                kMaxCost);
+  thread_local std::vector<std::uint32_t> keys;
+  if (config.lr_check) {
+    keys.resize(static_cast<std::size_t>(width + dp));
+    right_winners(S, width, dp, keys.data());
+  }
+  for (int x = 0; x < width; ++x) {
+    std::uint16_t* s = S + static_cast<std::size_t>(x) * dp;
+    const std::uint16_t best = min_cost(s, dp);
+    const int d = first_index_of(s, dp, best);
+    // Second best outside d−1 … d+1: hide the three, take the minimum, restore.
+    const int lo = std::max(0, d - 1), hi = std::min(d_max - 1, d + 1);
+    std::uint16_t saved[3];
+    for (int k = lo; k <= hi; ++k) saved[k - lo] = s[k], s[k] = kMaxCost;
+    const std::uint16_t second = min_cost(s, dp);
+    for (int k = lo; k <= hi; ++k) s[k] = saved[k - lo];
+    bool valid = x - d >= 0 && is_unique(best, second, config.uniqueness_ratio);
+    if (valid && config.lr_check) {
+      const int d_right = static_cast<int>(keys[static_cast<std::size_t>(width - 1 - (x - d))] & 0xFFFFu);
+      valid = std::abs(d - d_right) <= config.lr_max_diff_px;
+    }
+    if (!valid) {
+      out[x] = kNaN;
+    } else if (config.subpixel && d > 0 && d < d_max - 1) {
+      out[x] = subpixel_parabola(d, s[d - 1], s[d], s[d + 1]);
+    } else {
+      out[x] = static_cast<float>(d);
+    }
+  }
+}
+
+void remove_speckles(cv::Mat& disparity, const SgmConfig& config) {
+  if (config.speckle_window_size <= 0) return;
+  constexpr short kInvalid = -16;
+  cv::Mat fixed(disparity.size(), CV_16S);
+  for (int y = 0; y < disparity.rows; ++y) {
+    const float* d = disparity.ptr<float>(y);
+    short* f = fixed.ptr<short>(y);
+    for (int x = 0; x < disparity.cols; ++x)
+      f[x] = std::isnan(d[x]) ? kInvalid : static_cast<short>(std::lround(d[x] * 16.0f));
+  }
+  const int max_diff = static_cast<int>(std::lround(config.speckle_range_px * 16.0));
+  cv::filterSpeckles(fixed, kInvalid, config.speckle_window_size, max_diff);
+  for (int y = 0; y < disparity.rows; ++y) {
+    float* d = disparity.ptr<float>(y);
+    const short* f = fixed.ptr<short>(y);
+    for (int x = 0; x < disparity.cols; ++x)
+      if (f[x] == kInvalid) d[x] = kNaN;
+  }
+}
+
+}  // namespace planecell::stereo::detail

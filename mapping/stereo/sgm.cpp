@@ -1,0 +1,84 @@
+/// The SGM disparity stage: validation, then census → cost → aggregation/selection → speckles.
+#include "mapping/stereo/sgm.hpp"
+
+#include <opencv2/imgproc.hpp>
+#include <memory>
+#include <string>
+
+#include "core/error.hpp"
+#include "mapping/stereo/sgm_detail.hpp"
+
+namespace planecell::stereo {
+namespace {
+
+void require(bool ok, const std::string& what) {
+  if (!ok) throw ConfigError("sgm." + what);
+}
+
+cv::Mat to_gray(const cv::Mat& image) {
+  if (image.type() == CV_8UC1) return image;
+  cv::Mat gray;
+  cv::cvtColor(image, gray, cv::COLOR_BGR2GRAY);
+  return gray;
+}
+
+}  // namespace
+
+void validate_sgm_input(const cv::Mat& left, const cv::Mat& right, const SgmConfig& c) {
+  if (left.empty()) throw InputError("SGM: left image is empty");
+  if (right.empty()) throw InputError("SGM: right image is empty");
+  if (left.size() != right.size())
+    throw InputError("SGM: left and right images differ in size (" + std::to_string(left.cols) +
+                     "x" + std::to_string(left.rows) + " vs " + std::to_string(right.cols) + "x" +
+                     std::to_string(right.rows) + ")");
+  for (const auto* image : {&left, &right})
+    if (image->type() != CV_8UC1 && image->type() != CV_8UC3)
+      throw InputError(std::string("SGM: ") + (image == &left ? "left" : "right") +
+                       " image must be 8-bit grey or BGR (CV_8UC1/CV_8UC3)");
+  require(c.max_disparity > 0 && c.max_disparity < left.cols,
+          "max_disparity = " + std::to_string(c.max_disparity) + " must be in [1, image width " +
+              std::to_string(left.cols) + ")");
+  require(c.threads >= 1, "threads must be >= 1");
+  require(c.census_width % 2 == 1 && c.census_height % 2 == 1 && c.census_width > 0 &&
+              c.census_height > 0 && c.census_width * c.census_height <= 65,
+          "census window " + std::to_string(c.census_width) + "x" +
+              std::to_string(c.census_height) + " must be odd x odd with at most 65 pixels");
+  require(c.lambda_grad >= 0.0 && c.lambda_grad <= 8.0, "lambda_grad must be in [0, 8]");
+  require(c.grad_cap >= 0 && c.grad_cap <= 255, "grad_cap must be in [0, 255]");
+  require(c.paths == 4 || c.paths == 8, "paths must be 4 or 8");
+  require(c.p1 >= 0 && c.p2 >= c.p1 && c.p2 <= 7900, "penalties need 0 <= p1 <= p2 <= 7900");
+  require(c.p2_slope >= 0.0, "p2_slope must be >= 0");
+  require(c.uniqueness_ratio >= 0 && c.uniqueness_ratio < 100,
+          "uniqueness_ratio must be in [0, 100)");
+  require(c.lr_max_diff_px >= 0, "lr_max_diff_px must be >= 0");
+  require(c.speckle_window_size >= 0, "speckle_window_size must be >= 0");
+  require(c.speckle_range_px >= 0.0, "speckle_range_px must be >= 0");
+}
+
+cv::Mat compute_disparity(const cv::Mat& left, const cv::Mat& right, const SgmConfig& config) {
+  validate_sgm_input(left, right, config);
+  const cv::Mat gray_l = to_gray(left), gray_r = to_gray(right);
+  const auto census_l =
+      detail::census_transform(gray_l, config.census_width, config.census_height, config.threads);
+  const auto census_r =
+      detail::census_transform(gray_r, config.census_width, config.census_height, config.threads);
+  // The two large volumes (cost: W·H·D_p bytes, parked sums: twice that) are kept per calling
+  // thread between calls, so that a stream of frames does not fault ~180 MB in every frame.
+  thread_local std::unique_ptr<detail::Volume<std::uint8_t>> cost;
+  thread_local std::unique_ptr<detail::Volume<std::uint16_t>> parked;
+  const std::size_t cells = static_cast<std::size_t>(left.cols) * left.rows *
+                            detail::padded_disparities(config.max_disparity);
+  if (!cost || cost->size < cells) {
+    cost.reset();
+    parked.reset();
+    cost = std::make_unique<detail::Volume<std::uint8_t>>(cells);
+    parked = std::make_unique<detail::Volume<std::uint16_t>>(cells);
+  }
+  detail::cost_volume(census_l, census_r, detail::epipolar_gradient(gray_l),
+                      detail::epipolar_gradient(gray_r), config, config.threads, *cost);
+  cv::Mat disparity = detail::aggregate_and_select(*cost, gray_l, config, *parked);
+  detail::remove_speckles(disparity, config);
+  return disparity;
+}
+
+}  // namespace planecell::stereo

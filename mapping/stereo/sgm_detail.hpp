@@ -1,0 +1,109 @@
+#pragma once
+/// Building blocks of the SGM stage (one job per file): census.cpp, cost.cpp, aggregate_paths.cpp,
+/// postprocess.cpp, glued by sgm.cpp. Exposed for tests and the scalar reference.
+#include <algorithm>
+#include <bit>
+#include <cmath>
+#include <cstdint>
+#include <memory>
+#include <opencv2/core/mat.hpp>
+#include <vector>
+
+#include "core/config/sgm_config.hpp"
+
+namespace planecell::stereo::detail {
+
+/// Disparities are processed in blocks of 16 (one AVX2 vector of uint16): D rounded up to 16.
+inline int padded_disparities(int max_disparity) { return (max_disparity + 15) / 16 * 16; }
+
+/// Census descriptors T(p) of a grey image: bit k is set when the k-th window pixel (row-major,
+/// centre skipped) is darker than the centre; the window is clamped at the image border.
+struct CensusImage {
+  int width = 0, height = 0;
+  std::vector<std::uint64_t> bits;  ///< row-major, width·height descriptors
+  std::uint64_t at(int x, int y) const { return bits[static_cast<std::size_t>(y) * width + x]; }
+};
+
+/// Census transform over a window_w × window_h window (odd, ≤ 65 pixels), rows split in stripes.
+CensusImage census_transform(const cv::Mat& gray, int window_w, int window_h, int threads);
+
+/// G(p, e): derivative of the grey image along the epipolar line (rows), Sobel 3×3 / 4, so that
+/// a step of Δ grey levels gives G = Δ. CV_16S.
+cv::Mat epipolar_gradient(const cv::Mat& gray);
+
+/// Gradient part of Eq. 1 in the integer cost scale: round(λ_grad · min(|ΔG|, cap)) computed
+/// in fixed point as (min(|ΔG|, cap) · round(16 λ_grad) + 8) >> 4.
+inline int gradient_cost(int gradient_difference, int grad_cap, int lambda_q4) {
+  const int g = std::min(std::abs(gradient_difference), grad_cap);
+  return (g * lambda_q4 + 8) >> 4;
+}
+inline int lambda_q4(double lambda_grad) { return static_cast<int>(std::lround(lambda_grad * 16)); }
+
+/// The uint8 cost of Eq. 1, saturated at 255: C = H(T_L(p), T_R(q)) + λ_grad·min(|G_L − G_R|, cap).
+inline int matching_cost(std::uint64_t census_l, std::uint64_t census_r, int grad_l, int grad_r,
+                         int grad_cap, int lambda_q4) {
+  const int ham = std::popcount(census_l ^ census_r);
+  return std::min(255, ham + gradient_cost(grad_l - grad_r, grad_cap, lambda_q4));
+}
+
+/// Cost of a disparity whose match q = p − d falls left of the right image: the largest cost.
+inline int out_of_image_cost(const SgmConfig& c) {
+  return std::min(255, c.census_width * c.census_height - 1 +
+                           gradient_cost(c.grad_cap, c.grad_cap, lambda_q4(c.lambda_grad)));
+}
+
+/// Per-pixel P2 for an intensity step |I(p) − I(p − r)| along a path (P2 adaptation):
+/// P2' = max(P1, round(P2 − slope·|ΔI|)), or P2 when adaptation is off. Indexed by |ΔI| ∈ [0, 255].
+std::vector<std::uint16_t> p2_table(const SgmConfig& c);
+
+/// Large uninitialised buffer (no zero fill) for the volumes: 2 MiB aligned and marked for
+/// transparent huge pages, so that first touch costs one fault per 2 MiB instead of per 4 KiB.
+void* allocate_volume_bytes(std::size_t bytes);
+void free_volume_bytes(void* p) noexcept;
+
+template <class T>
+struct Volume {
+  struct Free {
+    void operator()(T* p) const noexcept { free_volume_bytes(p); }
+  };
+  std::unique_ptr<T[], Free> data;
+  std::size_t size = 0;
+  explicit Volume(std::size_t n)
+      : data(static_cast<T*>(allocate_volume_bytes(n * sizeof(T)))), size(n) {}
+  T* get() { return data.get(); }
+  const T* get() const { return data.get(); }
+};
+
+/// Matching-cost volume C(x, y, d) as uint8, layout [y][x][d] with d padded to padded_disparities,
+/// written into `cost` (≥ W·H·D_p bytes). d ≥ max_disparity and matches outside the right image
+/// get out_of_image_cost.
+void cost_volume(const CensusImage& census_l, const CensusImage& census_r,
+                 const cv::Mat& gradient_l, const cv::Mat& gradient_r, const SgmConfig& config,
+                 int threads, Volume<std::uint8_t>& cost);
+
+/// Winner-take-all with sub-pixel refinement, uniqueness and left-right check on one row of the
+/// aggregated cost S(x, d) = Σ_r L_r (Eq. 2), layout [x][d_padded]. Writes float disparity
+/// (NaN = rejected) into `out`. `S` is modified (padding lanes set to 0xFFFF).
+void select_row(std::uint16_t* S, int width, const SgmConfig& config, float* out);
+
+/// Parabola through (d−1, s_m), (d, s_0), (d+1, s_p): d + (s_m − s_p) / (2 (s_m + s_p − 2 s_0)).
+inline float subpixel_parabola(int d, int s_m, int s_0, int s_p) {
+  const int denom = s_m + s_p - 2 * s_0;
+  if (denom <= 0) return static_cast<float>(d);
+  return static_cast<float>(d) + static_cast<float>(s_m - s_p) / (2.0f * static_cast<float>(denom));
+}
+
+/// Uniqueness: the best cost must beat every cost at |d − d_best| > 1 by `ratio` percent.
+inline bool is_unique(int best, int second, int ratio) {
+  return static_cast<long>(second) * (100 - ratio) >= static_cast<long>(best) * 100;
+}
+
+/// Eq. 2 over all paths for the whole image: returns the disparity before speckle removal.
+/// `parked` (≥ W·H·D_p values) holds the partial sums handed between the two passes.
+cv::Mat aggregate_and_select(const Volume<std::uint8_t>& cost, const cv::Mat& gray_left,
+                             const SgmConfig& config, Volume<std::uint16_t>& parked);
+
+/// Small-speckle removal (cv::filterSpeckles on a 1/16 px fixed-point copy); in place, NaN = invalid.
+void remove_speckles(cv::Mat& disparity, const SgmConfig& config);
+
+}  // namespace planecell::stereo::detail

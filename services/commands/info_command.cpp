@@ -1,0 +1,269 @@
+/// `planecell info PATH` — summarises a sequence folder, a disparity map or an image.
+/// Each kind of PATH is one entry of kDescribers (a map store is one more entry).
+#include <algorithm>
+#include <cmath>
+#include <iomanip>
+#include <iostream>
+#include <limits>
+#include <memory>
+#include <opencv2/core.hpp>
+#include <sstream>
+
+#include "core/error.hpp"
+#include "io/disparity_io.hpp"
+#include "io/euroc.hpp"
+#include "io/image_io.hpp"
+#include "io/kitti_odometry.hpp"
+#include "services/commands/commands.hpp"
+
+namespace planecell::services {
+namespace {
+
+namespace fs = std::filesystem;
+
+bool is_dir(const fs::path& p) {
+  std::error_code ec;
+  return fs::is_directory(p, ec);
+}
+bool is_file(const fs::path& p) {
+  std::error_code ec;
+  return fs::is_regular_file(p, ec);
+}
+
+std::string lower_extension(const fs::path& p) {
+  std::string ext = p.extension().string();
+  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return ext;
+}
+
+std::size_t count_files(const fs::path& dir) {
+  std::size_t n = 0;
+  std::error_code ec;
+  for (const auto& entry : fs::directory_iterator(dir, ec))
+    if (entry.is_regular_file()) ++n;
+  return n;
+}
+
+std::string camera_line(const StereoCamera& c) {
+  std::ostringstream out;
+  out << std::fixed << std::setprecision(3) << "fx " << c.fx << "  fy " << c.fy << "  cx " << c.cx
+      << "  cy " << c.cy << "  baseline " << std::setprecision(4) << c.baseline_m << " m";
+  return out.str();
+}
+
+/// Sum of distances between consecutive camera positions (m).
+double path_length_m(const std::vector<Pose>& poses) {
+  double length = 0.0;
+  for (std::size_t i = 1; i < poses.size(); ++i)
+    length += (poses[i].translation() - poses[i - 1].translation()).norm();
+  return length;
+}
+
+// ---- KITTI odometry layout -----------------------------------------------------------------
+
+bool is_kitti_sequence(const fs::path& p) {
+  return is_dir(p) && (is_dir(p / "image_0") || is_dir(p / "image_2"));
+}
+
+std::string describe_kitti_sequence(const fs::path& dir) {
+  std::ostringstream out;
+  out << std::fixed;
+  const int left_index = is_dir(dir / "image_2") ? 2 : 0;
+  const fs::path left_dir = dir / ("image_" + std::to_string(left_index));
+  const fs::path right_dir = dir / ("image_" + std::to_string(left_index + 1));
+  std::vector<fs::path> left_images;
+  std::error_code ec;
+  for (const auto& entry : fs::directory_iterator(left_dir, ec))
+    if (entry.is_regular_file()) left_images.push_back(entry.path());
+  std::sort(left_images.begin(), left_images.end());
+  const std::size_t right_count = is_dir(right_dir) ? count_files(right_dir) : 0;
+
+  out << "KITTI odometry layout: " << dir.string() << "\n";
+  out << "  camera pair:  image_" << left_index << "/ + image_" << left_index + 1 << "/ ("
+      << (left_index == 2 ? "colour" : "gray") << ")\n";
+  out << "  frames:       " << left_images.size() << " left, " << right_count << " right"
+      << (is_dir(right_dir) ? "" : " (" + right_dir.filename().string() + "/ missing)") << "\n";
+  int width = 0, height = 0;
+  if (!left_images.empty()) {
+    const cv::Mat first = io::read_image(left_images.front(), false);
+    width = first.cols;
+    height = first.rows;
+    out << "  image size:   " << width << " x " << height << " px\n";
+  }
+  if (is_file(dir / "calib.txt")) {
+    const auto calib = io::read_kitti_calibration(dir / "calib.txt");
+    const StereoCamera camera = io::stereo_camera_from_kitti(calib, left_index, width, height);
+    out << "  camera:       " << camera_line(camera) << "\n";
+  } else {
+    out << "  camera:       calib.txt missing\n";
+  }
+  if (is_file(dir / "times.txt")) {
+    const auto times = io::read_kitti_times(dir / "times.txt");
+    out << std::setprecision(3) << "  times:        " << times.size() << " rows";
+    if (!times.empty())
+      out << ", " << times.front() << " .. " << times.back() << " s (span "
+          << times.back() - times.front() << " s)";
+    out << "\n";
+  } else {
+    out << "  times:        times.txt missing\n";
+  }
+  if (const auto poses_file = io::find_kitti_poses_file(dir)) {
+    const auto poses = io::read_kitti_poses(*poses_file);
+    out << std::setprecision(1) << "  poses:        " << poses.size() << " in "
+        << poses_file->string() << ", cam0 path length " << path_length_m(poses) << " m";
+    if (poses.size() != left_images.size())
+      out << "  (≠ " << left_images.size() << " frames: pass a matching poses file)";
+    out << "\n";
+  } else {
+    out << "  poses:        none found\n";
+  }
+  out << "  ground truth:";
+  for (const char* sub : {"disp_occ_0", "disp_noc_0", "surface_0"}) {
+    out << "  " << sub << "/ ";
+    if (is_dir(dir / sub))
+      out << "(" << count_files(dir / sub) << " files)";
+    else
+      out << "missing";
+  }
+  out << "\n";
+  return out.str();
+}
+
+// ---- EuRoC ---------------------------------------------------------------------------------
+
+bool is_euroc_sequence(const fs::path& p) {
+  const fs::path mav0 = is_dir(p / "mav0") ? p / "mav0" : p;
+  return is_dir(mav0 / "cam0") && is_file(mav0 / "cam0" / "sensor.yaml");
+}
+
+std::string describe_euroc(const fs::path& dir) {
+  const auto seq = io::open_euroc(dir);
+  std::ostringstream out;
+  out << std::fixed << std::setprecision(3);
+  std::size_t with_pose = 0;
+  for (const auto& p : seq.poses) with_pose += p.has_value();
+  out << "EuRoC sequence: " << seq.mav0.string() << "\n";
+  out << "  stereo pairs: " << seq.size() << " (cam0 + cam1, raw; rectified on load)\n";
+  out << "  image size:   " << seq.camera.width << " x " << seq.camera.height << " px\n";
+  out << "  rectified:    " << camera_line(seq.camera) << "\n";
+  out << "  time span:    " << (seq.timestamps_ns.back() - seq.timestamps_ns.front()) * 1e-9
+      << " s\n";
+  out << "  poses:        " << with_pose << " of " << seq.size() << " frames";
+  if (!seq.groundtruth_file.empty()) out << " from " << seq.groundtruth_file.string();
+  out << "\n";
+  return out.str();
+}
+
+// ---- single files --------------------------------------------------------------------------
+
+bool is_disparity_file(const fs::path& p) {
+  if (!is_file(p)) return false;
+  const std::string ext = lower_extension(p);
+  if (ext == ".pfm") return true;
+  return ext == ".png" && io::read_image_unchanged(p).type() == CV_16UC1;
+}
+
+std::string describe_disparity(const fs::path& path) {
+  const cv::Mat d = io::read_disparity(path);
+  double sum = 0.0, lo = std::numeric_limits<double>::infinity(), hi = -lo;
+  std::size_t valid = 0;
+  for (int r = 0; r < d.rows; ++r) {
+    const float* row = d.ptr<float>(r);
+    for (int c = 0; c < d.cols; ++c) {
+      if (!is_valid_disparity(row[c])) continue;
+      ++valid;
+      sum += row[c];
+      lo = std::min(lo, static_cast<double>(row[c]));
+      hi = std::max(hi, static_cast<double>(row[c]));
+    }
+  }
+  std::ostringstream out;
+  out << std::fixed << std::setprecision(2);
+  out << "disparity map (" << (lower_extension(path) == ".pfm" ? "PFM" : "KITTI 16-bit PNG")
+      << "): " << path.string() << "\n";
+  out << "  size:         " << d.cols << " x " << d.rows << " px\n";
+  out << "  density:      " << 100.0 * valid / std::max<std::size_t>(1, d.total()) << " % ("
+      << valid << " valid px)\n";
+  if (valid > 0)
+    out << "  disparity:    min " << lo << "  max " << hi << "  mean " << sum / valid << " px\n";
+  return out.str();
+}
+
+bool is_image_file(const fs::path& p) {
+  static const std::vector<std::string> kImageExtensions{".png", ".jpg", ".jpeg", ".ppm",
+                                                         ".pgm", ".bmp", ".tif", ".tiff"};
+  const std::string ext = lower_extension(p);
+  return is_file(p) &&
+         std::find(kImageExtensions.begin(), kImageExtensions.end(), ext) != kImageExtensions.end();
+}
+
+std::string describe_image(const fs::path& path) {
+  const cv::Mat image = io::read_image_unchanged(path);
+  std::vector<cv::Mat> channels;
+  cv::split(image, channels);
+  std::ostringstream out;
+  out << std::fixed << std::setprecision(1);
+  out << "image: " << path.string() << "\n";
+  out << "  size:         " << image.cols << " x " << image.rows << " px, " << image.channels()
+      << " channel(s), " << (image.depth() == CV_8U ? 8 : image.depth() == CV_16U ? 16 : 32)
+      << "-bit\n";
+  for (std::size_t k = 0; k < channels.size(); ++k) {
+    double lo = 0.0, hi = 0.0;
+    cv::minMaxLoc(channels[k], &lo, &hi);
+    out << "  channel " << k << ":    min " << lo << "  max " << hi << "  mean "
+        << cv::mean(channels[k])[0] << "\n";
+  }
+  return out.str();
+}
+
+/// One kind of PATH `planecell info` understands (first match wins).
+struct Describer {
+  const char* kind;
+  bool (*matches)(const fs::path&);
+  std::string (*describe)(const fs::path&);
+};
+
+const Describer kDescribers[] = {
+    {"KITTI odometry layout folder", is_kitti_sequence, describe_kitti_sequence},
+    {"EuRoC folder", is_euroc_sequence, describe_euroc},
+    {"disparity map", is_disparity_file, describe_disparity},
+    {"image", is_image_file, describe_image},
+};
+
+std::string describe_path(const fs::path& path) {
+  std::error_code ec;
+  if (!fs::exists(path, ec)) throw InputError("info: '" + path.string() + "' does not exist");
+  for (const auto& describer : kDescribers)
+    if (describer.matches(path)) return describer.describe(path);
+  std::string kinds;
+  for (const auto& describer : kDescribers)
+    kinds += std::string(kinds.empty() ? "" : ", ") + describer.kind;
+  throw InputError("info: '" + path.string() + "' is not something planecell knows (expected: " +
+                   kinds + ")");
+}
+
+}  // namespace
+
+void add_info_command(CLI::App& app, CommandContext& context) {
+  auto* command = app.add_subcommand(
+      "info",
+      "Summarise a dataset folder or file: a KITTI-odometry-layout sequence (frames, image "
+      "size, camera, time span, poses, path length, GT folders), a EuRoC folder, a disparity map "
+      "(.pfm or KITTI 16-bit .png: size, density, min/max/mean) or an image.");
+  auto path = std::make_shared<std::string>();
+  command->add_option("path", *path, "Folder or file to summarise")->required();
+  command->footer(
+      "Examples:\n"
+      "  planecell info /tmp/street                          # a `planecell synth` output\n"
+      "  planecell info dataset/sequences/00                 # KITTI odometry (poses in ../../poses)\n"
+      "  planecell info V1_01_easy                           # EuRoC (folder holding mav0/)\n"
+      "  planecell info training/disp_occ_0/000000_10.png    # KITTI GT disparity\n"
+      "  planecell info disparity/left/A-0032-0006.pfm       # PFM disparity\n"
+      "  planecell info teddy/im2.png                        # an image\n");
+  context.add(command, [path](const CommandContext&) {
+    std::cout << describe_path(*path);
+    return kExitOk;
+  });
+}
+
+}  // namespace planecell::services

@@ -1,0 +1,234 @@
+/// Map store: round trip of a merged map through SQLite, reopen, foreign/truncated files,
+/// and a failed write (file-size limit in a forked child) leaving committed frames intact.
+#include <gtest/gtest.h>
+#include <sqlite3.h>
+#include <sys/resource.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <csignal>
+#include <fstream>
+#include <sstream>
+
+#include "core/error.hpp"
+#include "io/map_store.hpp"
+#include "support/test_data.hpp"
+
+namespace planecell::io {
+namespace {
+
+const Eigen::Vector3f kX(1, 0, 0), kY(0, 1, 0), kZ(0, 0, 1);
+
+Planecell rect_cell(std::uint32_t id, const Eigen::Vector3f& corner, const Eigen::Vector3f& e1,
+                    const Eigen::Vector3f& e2, int colour_bin) {
+  Planecell c;
+  c.id = id;
+  c.has_plane = true;
+  c.vertices_m = {corner, corner + e1, corner + e1 + e2, corner + e2};
+  const Eigen::Vector3d n = e1.cross(e2).cast<double>().normalized();
+  c.plane.normal = n;
+  c.plane.offset = -n.dot(corner.cast<double>());
+  c.disparity_plane = {0.01 * id, -0.02, 30.0 + id};
+  c.histogram.fill(0.0f);
+  c.histogram[colour_bin] = 0.75f;
+  c.histogram[(colour_bin + 1) % kColourHistogramBins] = 0.25f;
+  c.mean_rgb = Eigen::Vector3f(4.0f * colour_bin, 100.3f, 50.1f);
+  c.area_px = 400 + id;
+  c.inlier_count = 350 + id;
+  c.inlier_ratio = 0.875f;
+  c.vertices_px = {{0, 0}, {20.5f, 0}, {20, 20}, {0, 20.25f}};
+  return c;
+}
+
+/// Frame f of a synthetic drive: a road strip (merging, fusing) plus a wall cell per frame; frame 2
+/// bridges two road pieces so a surface merge happens. `cells_per_row` scales the frame's size.
+std::vector<Planecell> frame_cells(int f, int cells_per_row = 4) {
+  std::vector<Planecell> cells;
+  if (f == 0) {
+    cells.push_back(rect_cell(0, {0, 1.5f, 5}, kX, kZ, 3));
+    cells.push_back(rect_cell(1, {2, 1.5f, 5}, kX, kZ, 3));
+    return cells;
+  }
+  if (f == 1) {
+    cells.push_back(rect_cell(0, {1, 1.5f, 5}, kX, kZ, 3));  // bridge: merges the two surfaces
+    return cells;
+  }
+  for (int i = 0; i < cells_per_row; ++i)
+    cells.push_back(rect_cell(static_cast<std::uint32_t>(i), {static_cast<float>(i), 1.5f, 4.0f + f}, kX, kZ, 3));
+  cells.push_back(rect_cell(static_cast<std::uint32_t>(cells_per_row), {-1, 0, 4.0f + f}, kZ, kY, 20));
+  return cells;
+}
+
+Pose frame_pose(int f) {
+  Pose pose = Pose::Identity();
+  pose.translation() = Eigen::Vector3d(0.1 * f, 0, f);
+  return pose;
+}
+
+/// Integrates frames [0, count) into `map` and, when given, commits each to `store`.
+void drive(map::GlobalMap& map, int count, MapStore* store, int cells_per_row = 4) {
+  for (int f = 0; f < count; ++f) {
+    const auto report = map.integrate(static_cast<std::uint64_t>(f), frame_pose(f),
+                                      frame_cells(f, cells_per_row));
+    if (store) store->commit_frame(static_cast<std::uint64_t>(f), frame_pose(f), report, map);
+  }
+}
+
+std::string read_bytes(const std::filesystem::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+TEST(MapStoreTest, RoundTripReopenResumesTheMapExactly) {
+  test::ScratchDir dir;
+  const auto path = dir / "map.db";
+  map::GlobalMap map;
+  {
+    MapStore store(path);
+    drive(map, 6, &store);
+    EXPECT_EQ(store.frame_count(), 6u);
+  }
+  ASSERT_EQ(map.surfaces().size(), 2u);  // road and wall
+  MapStore reopened(path);
+  EXPECT_EQ(reopened.frame_ids(), (std::vector<std::uint64_t>{0, 1, 2, 3, 4, 5}));
+  const auto pose3 = reopened.pose(3);
+  ASSERT_TRUE(pose3.has_value());
+  EXPECT_TRUE(pose3->matrix() == frame_pose(3).matrix());
+  EXPECT_FALSE(reopened.pose(99).has_value());
+  // The bridging frame merged surface 1 into surface 0.
+  const auto merges = reopened.merge_history();
+  ASSERT_EQ(merges.size(), 1u);
+  EXPECT_EQ(merges[0], (map::SurfaceMerge{1, 1, 0}));
+  map::GlobalMap loaded = load_map(reopened);
+  EXPECT_TRUE(loaded.same_content(map));
+  EXPECT_EQ(loaded.map_bytes() > 0, true);
+
+  // Resume: continuing on the loaded map gives the same result as never stopping.
+  map::GlobalMap continuous = map;
+  const auto r_cont = continuous.integrate(6, frame_pose(6), frame_cells(6));
+  const auto r_loaded = loaded.integrate(6, frame_pose(6), frame_cells(6));
+  EXPECT_EQ(r_loaded.added_cells, r_cont.added_cells);
+  EXPECT_TRUE(loaded.same_content(continuous));
+  reopened.commit_frame(6, frame_pose(6), r_loaded, loaded);
+  EXPECT_TRUE(load_map(reopened).same_content(continuous));
+  // A frame id can be committed once.
+  EXPECT_THROW(reopened.commit_frame(6, frame_pose(6), r_loaded, loaded), StorageError);
+  EXPECT_EQ(reopened.frame_count(), 7u);
+}
+
+TEST(MapStoreTest, RTreeAnswersBoxQueriesOverCellBounds) {
+  test::ScratchDir dir;
+  map::GlobalMap map;
+  MapStore store(dir / "map.db");
+  drive(map, 4, &store);
+  map::Aabb box;
+  box.extend(Eigen::Vector3d(-2, -1, 0));
+  box.extend(Eigen::Vector3d(10, 2, 6.5));  // z ≤ 6.5: frames 0–2 (z from 5 to 7 overlap)
+  EXPECT_EQ(store.cells_in_box(box), map.cells_near(box));
+  EXPECT_FALSE(store.cells_in_box(box).empty());
+}
+
+TEST(MapStoreTest, ForeignTextFileIsRejectedAndLeftUnchanged) {
+  test::ScratchDir dir;
+  const auto path = dir / "map.db";
+  {
+    std::ofstream out(path);
+    out << "this is not a map\n";
+  }
+  const std::string before = read_bytes(path);
+  try {
+    MapStore store(path);
+    FAIL() << "expected StorageError";
+  } catch (const StorageError& e) {
+    EXPECT_NE(std::string(e.what()).find(path.string()), std::string::npos) << e.what();
+  }
+  EXPECT_EQ(read_bytes(path), before);
+}
+
+TEST(MapStoreTest, ForeignSqliteDatabaseIsRejectedAndLeftUnchanged) {
+  test::ScratchDir dir;
+  const auto path = dir / "other.db";
+  sqlite3* db = nullptr;
+  ASSERT_EQ(sqlite3_open(path.c_str(), &db), SQLITE_OK);
+  ASSERT_EQ(sqlite3_exec(db, "CREATE TABLE t(x); INSERT INTO t VALUES (1);", nullptr, nullptr, nullptr), SQLITE_OK);
+  sqlite3_close(db);
+  const std::string before = read_bytes(path);
+  EXPECT_THROW(MapStore{path}, StorageError);
+  EXPECT_EQ(read_bytes(path), before);
+}
+
+TEST(MapStoreTest, TruncatedCopyIsRejected) {
+  test::ScratchDir dir;
+  const auto path = dir / "map.db";
+  {
+    map::GlobalMap map;
+    MapStore store(path);
+    drive(map, 8, &store);
+  }
+  const std::string full = read_bytes(path);
+  ASSERT_GT(full.size(), 8192u);
+  const auto copy = dir / "truncated.db";
+  {
+    std::ofstream out(copy, std::ios::binary);
+    out.write(full.data(), static_cast<std::streamsize>(full.size() / 2));
+  }
+  try {
+    MapStore store(copy);
+    // Some truncations leave a readable prefix: the map must then fail to load, never be wrong.
+    EXPECT_THROW(store.load(), StorageError);
+  } catch (const StorageError& e) {
+    EXPECT_NE(std::string(e.what()).find(copy.string()), std::string::npos) << e.what();
+  }
+}
+
+TEST(MapStoreTest, FailedWriteRaisesStorageErrorAndKeepsCommittedFrames) {
+  test::ScratchDir dir;
+  const auto path = dir / "map.db";
+  constexpr int kCommitted = 4;
+  const pid_t child = fork();
+  ASSERT_GE(child, 0);
+  if (child == 0) {
+    // Child: commit frames, then cap the file size just above the current files and write a big
+    // frame. Exit 0 only when that write fails with a StorageError naming the store.
+    int code = 1;
+    try {
+      std::signal(SIGXFSZ, SIG_IGN);
+      map::GlobalMap map;
+      MapStore store(path);
+      drive(map, kCommitted, &store);
+      std::error_code ec;
+      std::uintmax_t biggest = std::filesystem::file_size(path, ec);
+      const auto wal = std::filesystem::path(path.string() + "-wal");
+      if (std::filesystem::exists(wal)) biggest = std::max(biggest, std::filesystem::file_size(wal));
+      const rlimit limit{biggest + 1024, biggest + 1024};
+      setrlimit(RLIMIT_FSIZE, &limit);
+      const auto big = frame_cells(kCommitted, 400);
+      const auto report = map.integrate(kCommitted, frame_pose(kCommitted), big);
+      try {
+        store.commit_frame(kCommitted, frame_pose(kCommitted), report, map);
+        code = 2;  // the write should not have fit
+      } catch (const StorageError& e) {
+        code = std::string(e.what()).find(path.string()) != std::string::npos ? 0 : 3;
+      }
+    } catch (...) {
+      code = 4;
+    }
+    _exit(code);
+  }
+  int status = 0;
+  ASSERT_EQ(waitpid(child, &status, 0), child);
+  ASSERT_TRUE(WIFEXITED(status));
+  ASSERT_EQ(WEXITSTATUS(status), 0) << "child exit codes: 2 = write succeeded, 3 = message "
+                                       "without the path, 4 = unexpected error";
+  // The committed frames are intact and equal to a map built from the same frames.
+  MapStore store(path);
+  EXPECT_EQ(store.frame_count(), static_cast<std::size_t>(kCommitted));
+  map::GlobalMap expected;
+  drive(expected, kCommitted, nullptr);
+  EXPECT_TRUE(load_map(store).same_content(expected));
+}
+
+}  // namespace
+}  // namespace planecell::io

@@ -1,0 +1,222 @@
+/// Global map: pose transform, neighbourhood queries, planner queries and fusion, each against
+/// hand-computed geometry of synthetic cells.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "core/error.hpp"
+#include "mapping/map/global_map.hpp"
+#include "mapping/map/pose_transform.hpp"
+
+namespace planecell::map {
+namespace {
+
+const Eigen::Vector3f kX(1, 0, 0), kY(0, 1, 0), kZ(0, 0, 1);
+
+/// A rectangular cell corner, corner+e1, corner+e1+e2, corner+e2 with a one-bin colour histogram.
+Planecell rect_cell(std::uint32_t id, const Eigen::Vector3f& corner, const Eigen::Vector3f& e1,
+                    const Eigen::Vector3f& e2, int colour_bin) {
+  Planecell c;
+  c.id = id;
+  c.has_plane = true;
+  c.vertices_m = {corner, corner + e1, corner + e1 + e2, corner + e2};
+  const Eigen::Vector3d n = e1.cross(e2).cast<double>().normalized();
+  c.plane.normal = n;
+  c.plane.offset = -n.dot(corner.cast<double>());
+  c.histogram.fill(0.0f);
+  c.histogram[colour_bin] = 1.0f;
+  c.mean_rgb = Eigen::Vector3f(4.0f * colour_bin, 100.0f, 50.0f);
+  c.area_px = 400;
+  c.vertices_px = {{0, 0}, {20, 0}, {20, 20}, {0, 20}};
+  return c;
+}
+
+TEST(PoseTransform, MovesPlaneAndPolygonWithKnownPose) {
+  // Camera-frame cell on the plane z = 5 (n = (0, 0, 1), e = −5).
+  Planecell cam = rect_cell(7, {1, 0, 5}, kX, kY, 0);
+  // T_world_cam: 90° about y (x_w = z_c, z_w = −x_c) then translate by (1, 2, 3).
+  Pose pose = Pose::Identity();
+  pose.linear() << 0, 0, 1, 0, 1, 0, -1, 0, 0;
+  pose.translation() = Eigen::Vector3d(1, 2, 3);
+  const Planecell world = to_world(cam, pose);
+  // Vertex (1, 0, 5) → (5, 0, −1) + (1, 2, 3) = (6, 2, 2); (2, 1, 5) → (5, 1, −2) + t = (6, 3, 1).
+  EXPECT_TRUE(world.vertices_m[0].isApprox(Eigen::Vector3f(6, 2, 2)));
+  EXPECT_TRUE(world.vertices_m[2].isApprox(Eigen::Vector3f(6, 3, 1)));
+  // Plane: n_w = R (0, 0, 1) = (1, 0, 0); the plane x = 6 → e = −6.
+  EXPECT_TRUE(world.plane.normal.isApprox(Eigen::Vector3d(1, 0, 0)));
+  EXPECT_NEAR(world.plane.offset, -6.0, 1e-12);
+  for (const auto& v : world.vertices_m) EXPECT_NEAR(world.plane.signed_distance(v.cast<double>()), 0.0, 1e-5);
+  EXPECT_EQ(world.vertices_px, cam.vertices_px);  // image-space fields unchanged
+}
+
+TEST(PoseTransform, RejectsBadPosesAndDropsPlanelessCells) {
+  std::vector<Planecell> cells = {rect_cell(0, {0, 0, 5}, kX, kY, 0), rect_cell(1, {0, 0, 5}, kX, kY, 0)};
+  cells[1].has_plane = false;
+  EXPECT_EQ(to_world(cells, Pose::Identity()).size(), 1u);
+  Pose nan_pose = Pose::Identity();
+  nan_pose.translation().x() = std::nan("");
+  EXPECT_THROW(to_world(cells, nan_pose), InputError);
+  Pose skewed = Pose::Identity();
+  skewed.linear()(0, 1) = 0.2;  // not orthonormal
+  EXPECT_THROW(to_world(cells, skewed), InputError);
+  Pose mirrored = Pose::Identity();
+  mirrored.linear()(2, 2) = -1.0;  // det −1
+  EXPECT_THROW(to_world(cells, mirrored), InputError);
+  GlobalMap map;
+  EXPECT_THROW(map.integrate(0, nan_pose, cells), InputError);
+}
+
+TEST(GlobalMapTest, NeighbourhoodQueryReturnsExactlyTheCellsInTheBox) {
+  GlobalMap map;
+  // Five 1 m cells of distinct colours, far apart (no merging), at x = −20, −10, 0, 10, 20.
+  std::vector<Planecell> cells;
+  for (std::uint32_t k = 0; k < 5; ++k)
+    cells.push_back(rect_cell(k, {10.0f * k - 20.0f, 1.5f, 5}, kX, kZ, static_cast<int>(k)));
+  const auto report = map.integrate(1, Pose::Identity(), cells);
+  ASSERT_EQ(report.added_cells.size(), 5u);
+  ASSERT_EQ(map.surfaces().size(), 5u);
+  Aabb box;
+  box.extend(Eigen::Vector3d(-10.5, 0, 0));
+  box.extend(Eigen::Vector3d(0.5, 3, 10));  // holds cell 1 ([−10, −9]) and touches cell 2 ([0, 1])
+  EXPECT_EQ(map.cells_near(box), (std::vector<std::uint32_t>{1, 2}));
+  Aabb above;
+  above.extend(Eigen::Vector3d(-30, -5, 0));
+  above.extend(Eigen::Vector3d(50, 1.4, 10));  // everything is at y = 1.5
+  EXPECT_TRUE(map.cells_near(above).empty());
+  Aabb far;
+  far.extend(Eigen::Vector3d(20.5, 1.5, 5.5));
+  EXPECT_EQ(map.cells_near(far), (std::vector<std::uint32_t>{4}));
+}
+
+TEST(GlobalMapTest, RejectsCellsBeyondMaxRange) {
+  MapConfig config;
+  config.max_range_m = 20.0;
+  GlobalMap map(config);
+  const std::vector<Planecell> cells = {rect_cell(0, {0, 1.5f, 10}, kX, kZ, 0),
+                                        rect_cell(1, {0, 1.5f, 30}, kX, kZ, 0)};
+  const auto report = map.integrate(1, Pose::Identity(), cells);
+  EXPECT_EQ(report.rejected_cells, 1u);
+  EXPECT_EQ(map.cells().size(), 1u);
+}
+
+TEST(GlobalMapQueries, DistanceToNearestCellInsideAndOutsideThePolygon) {
+  GlobalMap map;
+  // Ground square y = 0, x, z ∈ [0, 2].
+  map.integrate(1, Pose::Identity(), std::vector<Planecell>{rect_cell(0, {0, 0, 0}, kX * 2, kZ * 2, 0)});
+  // Inside: plain point-to-plane distance |n·p + e|.
+  auto d = map.nearest_cell({1.0, -0.5, 1.0}, 10.0);
+  ASSERT_TRUE(d.has_value());
+  EXPECT_EQ(d->cell_id, 0u);
+  EXPECT_NEAR(d->distance_m, 0.5, 1e-6);
+  // Outside beyond the edge x = 2: distance to that edge, √(1² + 0.4²).
+  d = map.nearest_cell({3.0, -0.4, 1.0}, 10.0);
+  ASSERT_TRUE(d.has_value());
+  EXPECT_NEAR(d->distance_m, std::sqrt(1.16), 1e-6);
+  // Outside past the corner (2, 0, 2): √(1² + 1²).
+  d = map.nearest_cell({3.0, 0.0, 3.0}, 10.0);
+  ASSERT_TRUE(d.has_value());
+  EXPECT_NEAR(d->distance_m, std::sqrt(2.0), 1e-6);
+  // Nothing within 1 m of a point 5 m away.
+  EXPECT_FALSE(map.nearest_cell({1.0, -5.0, 1.0}, 1.0).has_value());
+  // Far point, large search radius: found by growing the search box.
+  d = map.nearest_cell({1.0, -9.0, 1.0}, 20.0);
+  ASSERT_TRUE(d.has_value());
+  EXPECT_NEAR(d->distance_m, 9.0, 1e-6);
+}
+
+/// A 4 × 4 m ground square (y = 0, x, z ∈ [0, 4]) with a box 0.8 m wide and 1 m tall on it
+/// (x, z ∈ [1.1, 1.9], top at y = −1 since up = −y).
+class BoxScene : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    const float lo = 1.1f, w = 0.8f;
+    std::vector<Planecell> cells = {
+        rect_cell(0, {0, 0, 0}, kX * 4, kZ * 4, 0),          // ground
+        rect_cell(1, {lo, -1, lo}, kX * w, kZ * w, 10),      // top
+        rect_cell(2, {lo, -1, lo}, kX * w, kY, 20),          // wall z = 1.1
+        rect_cell(3, {lo, -1, lo + w}, kX * w, kY, 20),      // wall z = 1.9
+        rect_cell(4, {lo, -1, lo}, kZ * w, kY, 30),          // wall x = 1.1
+        rect_cell(5, {lo + w, -1, lo}, kZ * w, kY, 30),      // wall x = 1.9
+    };
+    map.integrate(1, Pose::Identity(), cells);
+  }
+  GlobalMap map;
+};
+
+TEST_F(BoxScene, HeightMapShowsTheBoxOnFlatGround) {
+  // 8 × 8 squares of 0.5 m over x, z ∈ [0, 4]: heights are up·X = −y.
+  const HeightMap hm = map.height_map({0.0, 0.0}, 8, 8, 0.5);
+  ASSERT_EQ(hm.height_m.rows, 8);
+  EXPECT_TRUE(hm.axis_a.isApprox(Eigen::Vector3d::UnitX()));
+  EXPECT_TRUE(hm.axis_b.isApprox(Eigen::Vector3d::UnitZ()));
+  for (int row = 0; row < 8; ++row)
+    for (int col = 0; col < 8; ++col) {
+      // Squares [1, 1.5] and [1.5, 2] in x and z hold the box (walls and top: 1 m); others ground.
+      const bool box = (col == 2 || col == 3) && (row == 2 || row == 3);
+      EXPECT_NEAR(hm.height_m.at<float>(row, col), box ? 1.0f : 0.0f, 1e-5) << row << "," << col;
+    }
+  // Outside the mapped area: no data.
+  const HeightMap outside = map.height_map({10.0, 10.0}, 2, 2, 0.5);
+  EXPECT_TRUE(std::isnan(outside.height_m.at<float>(0, 0)));
+  EXPECT_THROW(map.height_map({0, 0}, 0, 4, 0.5), InputError);
+}
+
+TEST_F(BoxScene, GroundUnderAPointIsTheClosestHorizontalSurfaceBelow) {
+  const std::uint32_t ground = map.cells().at(0).surface, top = map.cells().at(1).surface;
+  auto hit = map.ground_under({3.0, -2.0, 3.0});
+  ASSERT_TRUE(hit.has_value());
+  EXPECT_EQ(hit->surface_id, ground);
+  EXPECT_NEAR(hit->height_above_m, 2.0, 1e-9);
+  EXPECT_TRUE(hit->ground_point.isApprox(Eigen::Vector3d(3.0, 0.0, 3.0)));
+  hit = map.ground_under({1.5, -2.0, 1.5});  // above the box: its top is closest below
+  ASSERT_TRUE(hit.has_value());
+  EXPECT_EQ(hit->surface_id, top);
+  EXPECT_NEAR(hit->height_above_m, 1.0, 1e-6);
+  EXPECT_FALSE(map.ground_under({10.0, -2.0, 10.0}).has_value());  // outside every footprint
+  EXPECT_FALSE(map.ground_under({3.0, 1.0, 3.0}).has_value());     // below the ground
+  EXPECT_FALSE(map.ground_under({3.0, -20.0, 3.0}, 5.0).has_value());  // ground beyond max drop
+}
+
+TEST(Fusion, SameCellObservedTwiceDoesNotGrowTheMap) {
+  GlobalMap map;
+  const std::vector<Planecell> frame = {rect_cell(0, {0, 1.5f, 5}, kX, kZ, 3),
+                                        rect_cell(1, {1, 1.5f, 5}, kX, kZ, 3)};
+  map.integrate(1, Pose::Identity(), frame);
+  const std::size_t bytes1 = map.map_bytes();
+  EXPECT_GT(bytes1, 2 * sizeof(Planecell));
+  const auto r2 = map.integrate(2, Pose::Identity(), frame);
+  EXPECT_EQ(r2.fused_cells, 2u);
+  EXPECT_TRUE(r2.added_cells.empty());
+  EXPECT_EQ(map.cells().size(), 2u);
+  EXPECT_LE(map.map_bytes(), bytes1 + bytes1 / 50);  // ≤ 2 % growth
+}
+
+TEST(Fusion, LoopedDriveSecondPassGrowsMapByLessThan15Percent) {
+  // A 4 m wide road along z, seen in 1 m × 2 m cells; pass 2 drives the same road with the
+  // segmentation shifted by 0.7 m along the road (as a real re-observation would be) and 2 cm of plane noise.
+  GlobalMap map;
+  auto pass = [&](float shift, float lift, std::uint64_t first_frame) {
+    for (int f = 0; f < 20; ++f) {
+      std::vector<Planecell> cells;
+      for (int i = 0; i < 4; ++i)
+        for (int j = 0; j < 2; ++j)
+          cells.push_back(rect_cell(static_cast<std::uint32_t>(cells.size()),
+                                    {-2.0f + i, 1.5f + lift, 2.0f * (f + j) + shift}, kX,
+                                    kZ * 2, 3));
+      Pose pose = Pose::Identity();
+      pose.translation().z() = 2.0 * f;
+      map.integrate(first_frame + f, pose, cells);
+    }
+  };
+  pass(0.0f, 0.0f, 0);
+  const std::size_t bytes_pass1 = map.map_bytes();
+  const std::size_t cells_pass1 = map.cells().size();
+  pass(0.7f, 0.02f, 100);
+  EXPECT_EQ(map.surfaces().size(), 1u);  // one road surface
+  EXPECT_LT(static_cast<double>(map.map_bytes()), 1.15 * static_cast<double>(bytes_pass1))
+      << "pass 1: " << bytes_pass1 << " B, " << cells_pass1 << " cells; pass 2: " << map.map_bytes()
+      << " B, " << map.cells().size() << " cells";
+}
+
+}  // namespace
+}  // namespace planecell::map

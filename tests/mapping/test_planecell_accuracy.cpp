@@ -1,0 +1,125 @@
+/// Accuracy of the dense planecell disparity against ground truth on every real pair present
+/// (Middlebury bad-2, KITTI D1), with OpenCV StereoSGBM as the raw matcher. Skips cleanly when
+/// the shared data is absent. Prints the figures recorded in docs/PERFORMANCE.md.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <opencv2/calib3d.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "io/planecell_codec.hpp"
+#include "io/stereo_datasets.hpp"
+#include "mapping/planecell/extraction.hpp"
+#include "support/test_data.hpp"
+
+namespace planecell::extraction {
+namespace {
+
+/// Raw matcher: OpenCV StereoSGBM (5×5, P1 = 8·3·25, P2 = 32·3·25), invalid → NaN.
+cv::Mat stereo_sgbm(const cv::Mat& left, const cv::Mat& right, int max_disparity) {
+  const int block = 5;
+  auto sgbm = cv::StereoSGBM::create(0, max_disparity, block, 8 * 3 * block * block,
+                                     32 * 3 * block * block, 1, 0, 10, 100, 2,
+                                     cv::StereoSGBM::MODE_SGBM);
+  cv::Mat raw;
+  sgbm->compute(left, right, raw);
+  cv::Mat out(raw.size(), CV_32F);
+  for (int v = 0; v < raw.rows; ++v)
+    for (int u = 0; u < raw.cols; ++u) {
+      const short d = raw.at<short>(v, u);
+      out.at<float>(v, u) = d > 0 ? d / 16.0f : std::numeric_limits<float>::quiet_NaN();
+    }
+  return out;
+}
+
+struct Scores {
+  double error_all = 0.0;      ///< % of GT pixels wrong (missing counts as wrong)
+  double error_on_valid = 0.0; ///< % wrong among GT pixels where `mask_valid` has a value
+  double coverage = 0.0;       ///< % of GT pixels with a value
+};
+
+/// bad-2 (Middlebury: |e| > 2 px) or D1 (KITTI: |e| > 3 px and > 5 %).
+bool wrong(float estimate, float truth, bool kitti) {
+  if (std::isnan(estimate)) return true;
+  const float e = std::abs(estimate - truth);
+  return kitti ? (e > 3.0f && e > 0.05f * truth) : e > 2.0f;
+}
+
+Scores score(const cv::Mat& estimate, const cv::Mat& truth, const cv::Mat& mask_valid,
+             bool kitti) {
+  long n = 0, n_wrong = 0, covered = 0, n_valid = 0, n_valid_wrong = 0;
+  for (int v = 0; v < truth.rows; ++v)
+    for (int u = 0; u < truth.cols; ++u) {
+      const float t = truth.at<float>(v, u);
+      if (!(t > 0.0f)) continue;
+      const float e = estimate.at<float>(v, u);
+      const bool bad = wrong(e, t, kitti);
+      ++n;
+      n_wrong += bad;
+      covered += !std::isnan(e);
+      if (!std::isnan(mask_valid.at<float>(v, u))) {
+        ++n_valid;
+        n_valid_wrong += bad;
+      }
+    }
+  Scores s;
+  s.error_all = 100.0 * n_wrong / std::max(1L, n);
+  s.error_on_valid = 100.0 * n_valid_wrong / std::max(1L, n_valid);
+  s.coverage = 100.0 * covered / std::max(1L, n);
+  return s;
+}
+
+struct DatasetCase {
+  const char* folder;
+  io::StereoDataset dataset;
+  int cells;  ///< KITTI ~765 as the paper; Middlebury 600 (paper ~270)
+};
+
+class PlanecellAccuracy : public ::testing::TestWithParam<DatasetCase> {};
+
+TEST_P(PlanecellAccuracy, DensePlaneDisparityBeatsRawSgbm) {
+  const auto root = test::shared_data(GetParam().folder);
+  if (!root) GTEST_SKIP() << "shared data '" << GetParam().folder << "' absent";
+  const auto refs = io::find_stereo_samples(GetParam().dataset, *root);
+  if (refs.empty()) GTEST_SKIP() << "no pairs with ground truth under " << root->string();
+  const bool kitti = GetParam().dataset == io::StereoDataset::kKitti;
+  ExtractionConfig config;
+  config.target_cells = GetParam().cells;
+  for (const auto& ref : refs) {
+    const io::StereoSample sample = io::load_stereo_sample(ref);
+    const cv::Mat raw = stereo_sgbm(sample.left, sample.right, sample.max_disparity);
+    const StereoCamera camera = sample.camera.value_or(StereoCamera{});
+    const PlanecellFrame frame = extract_planecells(sample.left, raw, camera, config);
+    const Scores raw_score = score(raw, sample.gt_disparity, raw, kitti);
+    const Scores cell_score = score(frame.dense_disparity, sample.gt_disparity, raw, kitti);
+    std::printf("%-24s %-4s cells %4zu planes %5.1f%%  raw SGBM: all %6.2f%% valid %6.2f%% "
+                "cover %5.1f%% | planecell: all %6.2f%% valid %6.2f%% cover %5.1f%%  (%.1f ms)\n",
+                ref.name.c_str(), kitti ? "D1" : "bad2", frame.cells.size(),
+                100.0 * frame.plane_fraction, raw_score.error_all, raw_score.error_on_valid,
+                raw_score.coverage, cell_score.error_all, cell_score.error_on_valid,
+                cell_score.coverage, frame.timings.total_ms);
+    const std::size_t compact = io::encode_planecells(frame.cells, camera, 0).size();
+    std::printf("%-24s compact encoding %zu B for %zu cells\n", ref.name.c_str(), compact,
+                frame.cells.size());
+    // What holds on every pair: the planes cover the GT, remove errors overall, and stay within
+    // one point of SGBM where SGBM has a value. (The 35 % reduction target is met on most
+    // pairs but not all: see docs/PERFORMANCE.md.)
+    EXPECT_GE(cell_score.coverage, 99.0) << ref.name;
+    EXPECT_LT(cell_score.error_all, 0.9 * raw_score.error_all) << ref.name;
+    EXPECT_LE(cell_score.error_on_valid, raw_score.error_on_valid + 1.0) << ref.name;
+    if (frame.cells.size() <= 800) {
+      EXPECT_LE(compact, 15000u) << ref.name;
+    }
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(
+    RealPairs, PlanecellAccuracy,
+    ::testing::Values(DatasetCase{"middlebury", io::StereoDataset::kMiddlebury, 600},
+                      DatasetCase{"kitti2012", io::StereoDataset::kKitti, 800},
+                      DatasetCase{"kitti2015", io::StereoDataset::kKitti, 800}),
+    [](const auto& info) { return std::string(info.param.folder); });
+
+}  // namespace
+}  // namespace planecell::extraction

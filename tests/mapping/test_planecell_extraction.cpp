@@ -1,0 +1,282 @@
+/// Planecell extraction on a rendered scene with known planes: boundaries, planes, dense
+/// disparity, planeless regions, 2D→3D exactness, and bad input.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+#include <map>
+#include <random>
+#include <vector>
+
+#include "core/error.hpp"
+#include "mapping/planecell/extraction.hpp"
+
+namespace planecell::extraction {
+namespace {
+
+/// A 320×240 scene of four regions, each with its colour and disparity plane d = a·u + b·v + c;
+/// region 3 ("sky") has no disparity at all.
+struct Region {
+  cv::Vec3b bgr;
+  DisparityPlane plane;
+  bool has_disparity;
+};
+
+struct SceneOptions {
+  const char* name;
+  int colour_noise;        ///< ± uniform noise on each channel
+  double disparity_noise;  ///< ± uniform noise (px)
+  double hole_fraction;    ///< share of pixels with NaN disparity
+};
+
+struct Scene {
+  cv::Mat left, disparity, region;  // region: CV_32S GT region id
+  std::vector<Region> regions;
+  StereoCamera camera;
+};
+
+Scene make_scene(const SceneOptions& options) {
+  constexpr int kW = 320, kH = 240;
+  Scene s;
+  s.regions = {
+      {cv::Vec3b(60, 60, 200), {0.02, 0.0, 10.0}, true},    // 0: far wall, red
+      {cv::Vec3b(60, 170, 60), {0.0, 0.15, 5.0}, true},     // 1: ground, green
+      {cv::Vec3b(210, 90, 40), {-0.01, 0.005, 45.0}, true}, // 2: box, blue
+      {cv::Vec3b(250, 235, 225), {0.0, 0.0, 0.0}, false},   // 3: sky, near white
+  };
+  s.camera.fx = s.camera.fy = 300.0;
+  s.camera.cx = 160.0;
+  s.camera.cy = 120.0;
+  s.camera.baseline_m = 0.5;
+  s.camera.width = kW;
+  s.camera.height = kH;
+  s.left.create(kH, kW, CV_8UC3);
+  s.disparity.create(kH, kW, CV_32F);
+  s.region.create(kH, kW, CV_32S);
+  std::mt19937 rng(42);
+  std::uniform_int_distribution<int> colour_noise(-options.colour_noise, options.colour_noise);
+  std::uniform_real_distribution<double> disp_noise(-options.disparity_noise,
+                                                    options.disparity_noise);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  for (int v = 0; v < kH; ++v) {
+    for (int u = 0; u < kW; ++u) {
+      int r = v < 100 ? 0 : 1;
+      if (u >= 120 && u < 220 && v >= 60 && v < 180) r = 2;
+      if (u < 90 && v < 50) r = 3;
+      const Region& region = s.regions[r];
+      s.region.at<int>(v, u) = r;
+      cv::Vec3b c = region.bgr;
+      for (int k = 0; k < 3; ++k) c[k] = cv::saturate_cast<uchar>(c[k] + colour_noise(rng));
+      s.left.at<cv::Vec3b>(v, u) = c;
+      float d = std::numeric_limits<float>::quiet_NaN();
+      if (region.has_disparity && unit(rng) >= options.hole_fraction)
+        d = static_cast<float>(region.plane.at(u, v) + disp_noise(rng));
+      s.disparity.at<float>(v, u) = d;
+    }
+  }
+  return s;
+}
+
+class PlanecellExtraction : public ::testing::TestWithParam<SceneOptions> {
+ protected:
+  void SetUp() override {
+    scene_ = make_scene(GetParam());
+    config_.target_cells = 150;
+    frame_ = extract_planecells(scene_.left, scene_.disparity, scene_.camera, config_);
+    // Majority GT region and purity of every cell.
+    const int n = static_cast<int>(frame_.cells.size());
+    std::vector<std::array<int, 4>> counts(n, {0, 0, 0, 0});
+    for (int v = 0; v < frame_.labels.rows; ++v)
+      for (int u = 0; u < frame_.labels.cols; ++u)
+        ++counts[frame_.labels.at<int>(v, u)][scene_.region.at<int>(v, u)];
+    majority_.resize(n);
+    purity_.resize(n);
+    for (int k = 0; k < n; ++k) {
+      int best = 0, total = 0;
+      for (int r = 0; r < 4; ++r) {
+        total += counts[k][r];
+        if (counts[k][r] > counts[k][best]) best = r;
+      }
+      majority_[k] = best;
+      purity_[k] = total > 0 ? static_cast<double>(counts[k][best]) / total : 0.0;
+    }
+  }
+
+  Scene scene_;
+  ExtractionConfig config_;
+  PlanecellFrame frame_;
+  std::vector<int> majority_;
+  std::vector<double> purity_;
+};
+
+TEST_P(PlanecellExtraction, LabelsAreAConnectedPartitionWithConsistentCells) {
+  const int n = static_cast<int>(frame_.cells.size());
+  ASSERT_GT(n, 100);  // ≈ 150 asked (13 × 10 grid of 21 px cells)
+  ASSERT_EQ(frame_.labels.type(), CV_32S);
+  std::vector<int> area(n, 0);
+  for (int v = 0; v < frame_.labels.rows; ++v)
+    for (int u = 0; u < frame_.labels.cols; ++u) {
+      const int l = frame_.labels.at<int>(v, u);
+      ASSERT_GE(l, 0);
+      ASSERT_LT(l, n);
+      ++area[l];
+    }
+  // Each cell: id = index, area matches, 4-connected (flood fill from its first pixel).
+  cv::Mat visited = cv::Mat::zeros(frame_.labels.size(), CV_8U);
+  for (int k = 0; k < n; ++k) {
+    EXPECT_EQ(frame_.cells[k].id, static_cast<std::uint32_t>(k));
+    EXPECT_EQ(frame_.cells[k].area_px, static_cast<std::uint32_t>(area[k]));
+    ASSERT_GT(area[k], 0);
+  }
+  int components = 0;
+  for (int v = 0; v < frame_.labels.rows; ++v)
+    for (int u = 0; u < frame_.labels.cols; ++u) {
+      if (visited.at<uchar>(v, u)) continue;
+      ++components;
+      const int l = frame_.labels.at<int>(v, u);
+      std::vector<cv::Point> stack = {{u, v}};
+      visited.at<uchar>(v, u) = 1;
+      while (!stack.empty()) {
+        const cv::Point p = stack.back();
+        stack.pop_back();
+        for (const cv::Point d : {cv::Point(1, 0), cv::Point(-1, 0), cv::Point(0, 1),
+                                  cv::Point(0, -1)}) {
+          const cv::Point q = p + d;
+          if (q.x < 0 || q.y < 0 || q.x >= frame_.labels.cols || q.y >= frame_.labels.rows)
+            continue;
+          if (visited.at<uchar>(q) || frame_.labels.at<int>(q) != l) continue;
+          visited.at<uchar>(q) = 1;
+          stack.push_back(q);
+        }
+      }
+    }
+  EXPECT_EQ(components, n) << "some segment is split into several pieces";
+}
+
+TEST_P(PlanecellExtraction, CellsRespectThePlaneBoundaries) {
+  for (std::size_t k = 0; k < frame_.cells.size(); ++k)
+    EXPECT_GE(purity_[k], 0.95) << "cell " << k << " mixes GT planes (majority "
+                                << majority_[k] << ")";
+}
+
+TEST_P(PlanecellExtraction, FittedPlanesRecoverTheSceneGeometry) {
+  int checked = 0;
+  for (std::size_t k = 0; k < frame_.cells.size(); ++k) {
+    const Planecell& cell = frame_.cells[k];
+    const Region& truth = scene_.regions[majority_[k]];
+    if (!truth.has_disparity || purity_[k] < 0.99 || cell.area_px < 150) continue;
+    ASSERT_TRUE(cell.has_plane) << "cell " << k;
+    ++checked;
+    EXPECT_NEAR(cell.disparity_plane.a, truth.plane.a, 0.01) << "cell " << k;
+    EXPECT_NEAR(cell.disparity_plane.b, truth.plane.b, 0.01) << "cell " << k;
+    // c is extrapolated to the image origin; compare the plane where the cell is instead.
+    const Eigen::Vector2f& p = cell.vertices_px.front();
+    EXPECT_NEAR(cell.disparity_plane.at(p.x(), p.y()), truth.plane.at(p.x(), p.y()), 0.25)
+        << "cell " << k;
+    EXPECT_GT(cell.inlier_ratio, 0.8f);
+    EXPECT_LE(cell.inlier_count, cell.area_px);
+  }
+  EXPECT_GT(checked, 80);
+}
+
+TEST_P(PlanecellExtraction, DenseDisparityIsAccurateWherePlanesExist) {
+  ASSERT_EQ(frame_.dense_disparity.type(), CV_32F);
+  int n = 0, within_1px = 0;
+  double abs_error = 0.0;
+  for (int v = 0; v < frame_.labels.rows; ++v)
+    for (int u = 0; u < frame_.labels.cols; ++u) {
+      const Region& truth = scene_.regions[scene_.region.at<int>(v, u)];
+      if (!truth.has_disparity) continue;
+      const float d = frame_.dense_disparity.at<float>(v, u);
+      ASSERT_TRUE(std::isfinite(d)) << "hole at (" << u << ", " << v << ")";
+      const double e = std::abs(d - truth.plane.at(u, v));
+      abs_error += e;
+      within_1px += e <= 1.0;
+      ++n;
+    }
+  EXPECT_LT(abs_error / n, 0.3);
+  EXPECT_GT(static_cast<double>(within_1px) / n, 0.99);
+}
+
+TEST_P(PlanecellExtraction, RegionWithoutDisparityIsPlaneless) {
+  int sky_cells = 0, planeless = 0;
+  for (std::size_t k = 0; k < frame_.cells.size(); ++k) {
+    planeless += !frame_.cells[k].has_plane;
+    if (majority_[k] != 3) continue;
+    ++sky_cells;
+    EXPECT_FALSE(frame_.cells[k].has_plane) << "sky cell " << k;
+    EXPECT_TRUE(frame_.cells[k].vertices_m.empty());
+  }
+  EXPECT_GT(sky_cells, 3);
+  EXPECT_DOUBLE_EQ(frame_.plane_fraction,
+                   1.0 - static_cast<double>(planeless) / frame_.cells.size());
+}
+
+TEST_P(PlanecellExtraction, VerticesLieOnTheCellPlaneIn3D) {
+  for (const Planecell& cell : frame_.cells) {
+    if (!cell.has_plane) continue;
+    ASSERT_EQ(cell.vertices_m.size(), cell.vertices_px.size());
+    ASSERT_GE(cell.vertices_px.size(), 3u);
+    for (std::size_t j = 0; j < cell.vertices_px.size(); ++j) {
+      const Eigen::Vector3d x = cell.vertices_m[j].cast<double>();
+      const Eigen::Vector2f& p = cell.vertices_px[j];
+      EXPECT_NEAR(cell.plane.signed_distance(x), 0.0, 1e-4 * x.norm());
+      const Eigen::Vector3d uvd = scene_.camera.project(x);
+      EXPECT_NEAR(uvd.x(), p.x(), 1e-3);
+      EXPECT_NEAR(uvd.y(), p.y(), 1e-3);
+      EXPECT_NEAR(uvd.z(), cell.disparity_plane.at(p.x(), p.y()), 1e-3);
+    }
+  }
+}
+
+TEST_P(PlanecellExtraction, CellColourAndHistogramDescribeTheRegion) {
+  for (std::size_t k = 0; k < frame_.cells.size(); ++k) {
+    if (purity_[k] < 0.999) continue;
+    const Planecell& cell = frame_.cells[k];
+    const cv::Vec3b bgr = scene_.regions[majority_[k]].bgr;
+    // Within one uniform region, cells split the noise by colour bin, so a cell's mean can be
+    // biased — but never beyond the noise amplitude.
+    const double tolerance = 1.0 + GetParam().colour_noise;
+    EXPECT_NEAR(cell.mean_rgb.x(), bgr[2], tolerance);
+    EXPECT_NEAR(cell.mean_rgb.y(), bgr[1], tolerance);
+    EXPECT_NEAR(cell.mean_rgb.z(), bgr[0], tolerance);
+    float sum = 0.0f;
+    for (float h : cell.histogram) sum += h;
+    EXPECT_NEAR(sum, 1.0f, 1e-4);
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(Scenes, PlanecellExtraction,
+                         ::testing::Values(SceneOptions{"clean", 0, 0.0, 0.0},
+                                           SceneOptions{"noisy_with_holes", 10, 0.4, 0.3}),
+                         [](const auto& info) { return std::string(info.param.name); });
+
+TEST(PlanecellExtractionInput, RejectsBadInputWithClearErrors) {
+  const StereoCamera camera;
+  const cv::Mat left(40, 60, CV_8UC3, cv::Scalar(10, 20, 30));
+  const cv::Mat disparity(40, 60, CV_32F, cv::Scalar(5.0f));
+  EXPECT_THROW(extract_planecells(cv::Mat(), disparity, camera, {}), InputError);
+  EXPECT_THROW(extract_planecells(left, cv::Mat(41, 60, CV_32F), camera, {}), InputError);
+  EXPECT_THROW(extract_planecells(left, cv::Mat(40, 60, CV_16U), camera, {}), InputError);
+  ExtractionConfig bad;
+  bad.target_cells = 0;
+  EXPECT_THROW(extract_planecells(left, disparity, camera, bad), ConfigError);
+  try {
+    extract_planecells(left, cv::Mat(41, 60, CV_32F), camera, {});
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("60x41"), std::string::npos) << e.what();
+  }
+  // A frontoparallel uniform frame: every cell gets the plane d = 5.
+  ExtractionConfig few;
+  few.target_cells = 6;
+  const PlanecellFrame frame = extract_planecells(left, disparity, camera, few);
+  ASSERT_FALSE(frame.cells.empty());
+  for (const Planecell& cell : frame.cells) {
+    ASSERT_TRUE(cell.has_plane);
+    EXPECT_NEAR(cell.disparity_plane.at(30, 20), 5.0, 1e-6);
+  }
+  EXPECT_DOUBLE_EQ(frame.plane_fraction, 1.0);
+}
+
+}  // namespace
+}  // namespace planecell::extraction

@@ -1,0 +1,283 @@
+/// SGM stage (paper Eq. 1–2): the fast path against the scalar reference, and both against
+/// rendered scenes with exactly known disparity.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <functional>
+#include <opencv2/imgproc.hpp>
+#include <random>
+
+#include "core/error.hpp"
+#include "mapping/stereo/sgm.hpp"
+
+namespace planecell::stereo {
+namespace {
+
+/// A smooth random texture (uniform noise, Gaussian-blurred) larger than the views.
+cv::Mat random_texture(int width, int height, std::uint32_t seed, double blur_sigma = 1.0) {
+  cv::Mat noise(height, width, CV_32F);
+  cv::RNG rng(seed);
+  rng.fill(noise, cv::RNG::UNIFORM, 0.0, 255.0);
+  if (blur_sigma > 0) cv::GaussianBlur(noise, noise, cv::Size(0, 0), blur_sigma);
+  cv::normalize(noise, noise, 0, 255, cv::NORM_MINMAX);
+  return noise;
+}
+
+/// A rendered stereo pair: right(x, y) = T(x, y); left(x, y) = T(x − d(x, y), y) for the
+/// disparity field d (bilinear sampling), so the true left disparity is d exactly.
+struct RenderedPair {
+  cv::Mat left, right;  // CV_8UC1
+  cv::Mat truth;        // CV_32F, NaN where the match falls outside the right image
+};
+
+constexpr int kMargin = 8;  // texture columns left of the right view (keeps samples inside)
+
+RenderedPair render(int width, int height, const std::function<float(int, int)>& disparity,
+                    std::uint32_t seed) {
+  const cv::Mat texture = random_texture(width + 2 * kMargin, height, seed);
+  cv::Mat map_x(height, width, CV_32F), map_y(height, width, CV_32F);
+  RenderedPair pair;
+  pair.truth.create(height, width, CV_32F);
+  for (int y = 0; y < height; ++y)
+    for (int x = 0; x < width; ++x) {
+      const float d = disparity(x, y);
+      map_x.at<float>(y, x) = static_cast<float>(x + kMargin) - d;
+      map_y.at<float>(y, x) = static_cast<float>(y);
+      pair.truth.at<float>(y, x) = x - d >= 0 ? d : std::numeric_limits<float>::quiet_NaN();
+    }
+  cv::Mat left_f, right_f;
+  cv::remap(texture, left_f, map_x, map_y, cv::INTER_LINEAR, cv::BORDER_REFLECT);
+  texture(cv::Rect(kMargin, 0, width, height)).copyTo(right_f);
+  left_f.convertTo(pair.left, CV_8U);
+  right_f.convertTo(pair.right, CV_8U);
+  return pair;
+}
+
+/// Fraction of pixels with known truth whose estimate is within `tolerance_px` (NaN = miss).
+double fraction_correct(const cv::Mat& estimate, const cv::Mat& truth, float tolerance_px,
+                        int skip_left_px = 0) {
+  int total = 0, good = 0;
+  for (int y = 0; y < truth.rows; ++y)
+    for (int x = skip_left_px; x < truth.cols; ++x) {
+      const float t = truth.at<float>(y, x);
+      if (std::isnan(t)) continue;
+      ++total;
+      const float e = estimate.at<float>(y, x);
+      if (!std::isnan(e) && std::abs(e - t) <= tolerance_px) ++good;
+    }
+  return total == 0 ? 0.0 : static_cast<double>(good) / total;
+}
+
+bool same_maps(const cv::Mat& a, const cv::Mat& b, int* mismatches) {
+  *mismatches = 0;
+  for (int y = 0; y < a.rows; ++y)
+    for (int x = 0; x < a.cols; ++x) {
+      const float u = a.at<float>(y, x), v = b.at<float>(y, x);
+      const bool same = (std::isnan(u) && std::isnan(v)) || u == v;
+      if (!same) ++*mismatches;
+    }
+  return *mismatches == 0;
+}
+
+// ---- fast path (SIMD, row buffers, 2 threads) vs scalar reference ---------------------------
+
+struct Variant {
+  int max_disparity;
+  int paths;
+  int threads;
+  bool adaptive_p2;
+  int census_w, census_h;
+};
+
+class SgmVsReference : public ::testing::TestWithParam<Variant> {};
+
+TEST_P(SgmVsReference, BitExactOnRandomImages) {
+  const Variant v = GetParam();
+  SgmConfig config;
+  config.max_disparity = v.max_disparity;
+  config.paths = v.paths;
+  config.threads = v.threads;
+  config.p2_adaptive = v.adaptive_p2;
+  config.census_width = v.census_w;
+  config.census_height = v.census_h;
+  // Pure noise (no scene) and a shifted texture (a real match), both 96×64.
+  cv::Mat noise_l(64, 96, CV_8UC1), noise_r(64, 96, CV_8UC1);
+  cv::RNG rng(7);
+  rng.fill(noise_l, cv::RNG::UNIFORM, 0, 256);
+  rng.fill(noise_r, cv::RNG::UNIFORM, 0, 256);
+  const auto scene = render(96, 64, [](int x, int) { return 6.0f + 0.05f * x; }, 11);
+  for (const bool is_scene : {false, true}) {
+    const cv::Mat& l = is_scene ? scene.left : noise_l;
+    const cv::Mat& r = is_scene ? scene.right : noise_r;
+    const cv::Mat fast = compute_disparity(l, r, config);
+    const cv::Mat reference = compute_disparity_reference(l, r, config);
+    ASSERT_EQ(fast.type(), CV_32F);
+    ASSERT_EQ(fast.size(), l.size());
+    int mismatches = 0;
+    EXPECT_TRUE(same_maps(fast, reference, &mismatches)) << mismatches << " pixels differ";
+    // On the scene the comparison is not vacuous: most pixels are valid (pure noise may
+    // legitimately be rejected everywhere by the uniqueness and left-right checks).
+    if (is_scene) {
+      EXPECT_GT(cv::countNonZero(fast == fast), 96 * 64 / 2);
+    }
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(
+    Variants, SgmVsReference,
+    ::testing::Values(Variant{32, 8, 1, true, 9, 7}, Variant{64, 8, 2, true, 9, 7},
+                      Variant{64, 4, 2, false, 5, 5}, Variant{40, 8, 2, false, 5, 5},
+                      Variant{23, 4, 1, true, 9, 7}),
+    [](const auto& info) {
+      const Variant& v = info.param;
+      return "D" + std::to_string(v.max_disparity) + "_paths" + std::to_string(v.paths) + "_t" +
+             std::to_string(v.threads) + (v.adaptive_p2 ? "_adaptiveP2" : "_fixedP2") + "_census" +
+             std::to_string(v.census_w) + "x" + std::to_string(v.census_h);
+    });
+
+// ---- rendered scenes with known disparity ---------------------------------------------------
+
+class SgmScene : public ::testing::TestWithParam<int /*paths*/> {
+ protected:
+  SgmConfig config() const {
+    SgmConfig c;
+    c.max_disparity = 48;
+    c.paths = GetParam();
+    return c;
+  }
+};
+
+TEST_P(SgmScene, FrontoParallelIntegerShift) {
+  const auto pair = render(160, 96, [](int, int) { return 13.0f; }, 3);
+  const cv::Mat d = compute_disparity(pair.left, pair.right, config());
+  EXPECT_GE(fraction_correct(d, pair.truth, 0.25f), 0.95);
+}
+
+TEST_P(SgmScene, FrontoParallelSubpixelShift) {
+  const auto pair = render(160, 96, [](int, int) { return 17.5f; }, 4);
+  const cv::Mat d = compute_disparity(pair.left, pair.right, config());
+  EXPECT_GE(fraction_correct(d, pair.truth, 0.5f), 0.95);
+  // Sub-pixel refinement moves estimates off the integers towards 17.5.
+  cv::Mat no_subpixel_cfg_result;
+  {
+    SgmConfig c = config();
+    c.subpixel = false;
+    no_subpixel_cfg_result = compute_disparity(pair.left, pair.right, c);
+  }
+  double err_sub = 0, err_int = 0;
+  int n = 0;
+  for (int y = 0; y < d.rows; ++y)
+    for (int x = 20; x < d.cols; ++x) {
+      const float a = d.at<float>(y, x), b = no_subpixel_cfg_result.at<float>(y, x);
+      if (std::isnan(a) || std::isnan(b)) continue;
+      err_sub += std::abs(a - 17.5f);
+      err_int += std::abs(b - 17.5f);
+      ++n;
+    }
+  ASSERT_GT(n, 1000);
+  EXPECT_LT(err_sub / n, 0.8 * err_int / n);
+}
+
+TEST_P(SgmScene, SlantedPlane) {
+  // d = 8 + 0.12 x + 0.05 y: from 8 px at the top-left to ~31 px at the bottom-right.
+  const auto pair = render(160, 96, [](int x, int y) { return 8.0f + 0.12f * x + 0.05f * y; }, 5);
+  const cv::Mat d = compute_disparity(pair.left, pair.right, config());
+  EXPECT_GE(fraction_correct(d, pair.truth, 1.0f), 0.95);
+}
+
+TEST_P(SgmScene, LeftRightCheckInvalidatesOccludedStrip) {
+  // Background at 8 px, a foreground band at 20 px for right-image columns [a, b): left pixels
+  // x ∈ [a + 8, a + 20) see background that the foreground hides in the right view.
+  constexpr int kA = 60, kB = 110;
+  constexpr float kBack = 8.0f, kFront = 20.0f;
+  const int width = 180, height = 80;
+  const cv::Mat back = random_texture(width + 2 * kMargin, height, 21);
+  const cv::Mat front = random_texture(width + 2 * kMargin, height, 22);
+  cv::Mat left(height, width, CV_8UC1), right(height, width, CV_8UC1), truth(height, width, CV_32F);
+  cv::Mat occluded(height, width, CV_8UC1, cv::Scalar(0));
+  auto sample = [](const cv::Mat& t, int x, int y) {
+    return cv::saturate_cast<std::uint8_t>(t.at<float>(y, x + kMargin));
+  };
+  for (int y = 0; y < height; ++y)
+    for (int x = 0; x < width; ++x) {
+      const bool r_front = x >= kA && x < kB;
+      right.at<std::uint8_t>(y, x) = r_front ? sample(front, x, y) : sample(back, x, y);
+      const int xf = x - static_cast<int>(kFront), xb = x - static_cast<int>(kBack);
+      const bool l_front = xf >= kA && xf < kB;
+      left.at<std::uint8_t>(y, x) = l_front ? sample(front, xf, y) : sample(back, xb, y);
+      const bool hidden = !l_front && xb >= kA && xb < kB;
+      occluded.at<std::uint8_t>(y, x) = hidden ? 255 : 0;
+      truth.at<float>(y, x) = (hidden || xb < 0) ? std::numeric_limits<float>::quiet_NaN()
+                                                  : (l_front ? kFront : kBack);
+    }
+  ASSERT_EQ(cv::countNonZero(occluded), 12 * height);
+  SgmConfig with_check = config();
+  with_check.uniqueness_ratio = 0;
+  with_check.speckle_window_size = 0;
+  SgmConfig without_check = with_check;
+  without_check.lr_check = false;
+  const cv::Mat checked = compute_disparity(left, right, with_check);
+  const cv::Mat unchecked = compute_disparity(left, right, without_check);
+  int strip = 0, invalid_checked = 0, invalid_unchecked = 0;
+  for (int y = 0; y < height; ++y)
+    for (int x = 0; x < width; ++x) {
+      if (!occluded.at<std::uint8_t>(y, x)) continue;
+      ++strip;
+      invalid_checked += std::isnan(checked.at<float>(y, x)) ? 1 : 0;
+      invalid_unchecked += std::isnan(unchecked.at<float>(y, x)) ? 1 : 0;
+    }
+  EXPECT_GE(invalid_checked, 0.8 * strip);
+  EXPECT_LE(invalid_unchecked, 0.1 * strip);
+  // The visible pixels keep their (correct) disparity.
+  EXPECT_GE(fraction_correct(checked, truth, 1.0f), 0.9);
+}
+
+INSTANTIATE_TEST_SUITE_P(Paths, SgmScene, ::testing::Values(8, 4),
+                         [](const auto& info) { return std::to_string(info.param) + "paths"; });
+
+TEST(Sgm, ColourAndGreyInputGiveTheSameDisparity) {
+  const auto pair = render(120, 64, [](int, int) { return 9.0f; }, 8);
+  cv::Mat left_bgr, right_bgr;
+  cv::cvtColor(pair.left, left_bgr, cv::COLOR_GRAY2BGR);
+  cv::cvtColor(pair.right, right_bgr, cv::COLOR_GRAY2BGR);
+  SgmConfig c;
+  c.max_disparity = 32;
+  int mismatches = 0;
+  EXPECT_TRUE(same_maps(compute_disparity(pair.left, pair.right, c),
+                        compute_disparity(left_bgr, right_bgr, c), &mismatches));
+}
+
+// ---- bad input ------------------------------------------------------------------------------
+
+TEST(SgmBadInput, ThrowsClearErrors) {
+  const cv::Mat image(40, 64, CV_8UC1, cv::Scalar(100));
+  SgmConfig c;
+  c.max_disparity = 16;
+  EXPECT_THROW(compute_disparity(cv::Mat(), image, c), InputError);
+  EXPECT_THROW(compute_disparity(image, cv::Mat(), c), InputError);
+  EXPECT_THROW(compute_disparity(image, cv::Mat(40, 63, CV_8UC1), c), InputError);
+  EXPECT_THROW(compute_disparity(image, cv::Mat(40, 64, CV_32F), c), InputError);
+  try {
+    compute_disparity(image, cv::Mat(41, 64, CV_8UC1), c);
+    FAIL() << "size mismatch not detected";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("64x40 vs 64x41"), std::string::npos) << e.what();
+  }
+  for (int bad_d : {0, -3, 64, 100}) {
+    SgmConfig bad = c;
+    bad.max_disparity = bad_d;
+    EXPECT_THROW(compute_disparity(image, image, bad), ConfigError) << bad_d;
+  }
+  SgmConfig bad = c;
+  bad.p2 = 9000;
+  EXPECT_THROW(compute_disparity(image, image, bad), ConfigError);
+  bad = c;
+  bad.census_width = 8;
+  EXPECT_THROW(compute_disparity(image, image, bad), ConfigError);
+  bad = c;
+  bad.paths = 6;
+  EXPECT_THROW(compute_disparity(image, image, bad), ConfigError);
+}
+
+}  // namespace
+}  // namespace planecell::stereo

@@ -1,0 +1,83 @@
+/// `planecell info` end to end: summaries of a KITTI-layout folder and a disparity map.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <fstream>
+#include <opencv2/core.hpp>
+
+#include "io/disparity_io.hpp"
+#include "io/image_io.hpp"
+#include "support/test_data.hpp"
+
+namespace planecell::services {
+namespace {
+
+namespace fs = std::filesystem;
+
+#define EXPECT_CONTAINS(text, needle) \
+  EXPECT_NE(std::string(text).find(needle), std::string::npos) << "'" << (text) << "' lacks '" << (needle) << "'"
+
+int run_info(const std::string& args, std::string* output) {
+  return test::run_command(test::planecell_binary() + " info " + args, output);
+}
+
+TEST(InfoCommand, SummarisesAKittiLayoutFolder) {
+  test::ScratchDir dir;
+  const fs::path seq = dir / "seq";
+  for (const char* name : {"000000.png", "000001.png"}) {
+    io::write_image(seq / "image_2" / name, cv::Mat(6, 8, CV_8UC3, cv::Scalar(1, 2, 3)));
+    io::write_image(seq / "image_3" / name, cv::Mat(6, 8, CV_8UC3, cv::Scalar(1, 2, 3)));
+    io::write_kitti_disparity(seq / "disp_occ_0" / name, cv::Mat(6, 8, CV_32F, cv::Scalar(4.0f)));
+  }
+  std::ofstream(seq / "calib.txt")
+      << "P0: 700 0 4 0 0 700 3 0 0 0 1 0\nP1: 700 0 4 -350 0 700 3 0 0 0 1 0\n"
+      << "P2: 700 0 4 0 0 700 3 0 0 0 1 0\nP3: 700 0 4 -350 0 700 3 0 0 0 1 0\n";
+  std::ofstream(seq / "times.txt") << "0.5\n2.0\n";
+  fs::create_directories(seq / "poses");
+  // Second pose 5 m away from the first (3-4-5 triangle).
+  std::ofstream(seq / "poses" / "seq.txt") << "1 0 0 0 0 1 0 0 0 0 1 0\n1 0 0 3 0 1 0 4 0 0 1 0\n";
+  std::string out;
+  ASSERT_EQ(run_info(seq.string(), &out), 0) << out;
+  EXPECT_CONTAINS(out, "image_2/ + image_3/ (colour)");
+  EXPECT_CONTAINS(out, "2 left, 2 right");
+  EXPECT_CONTAINS(out, "8 x 6 px");
+  EXPECT_CONTAINS(out, "fx 700.000");
+  EXPECT_CONTAINS(out, "baseline 0.5000 m");
+  EXPECT_CONTAINS(out, "span 1.500 s");
+  EXPECT_CONTAINS(out, "path length 5.0 m");
+  EXPECT_CONTAINS(out, "disp_occ_0/ (2 files)");
+  EXPECT_CONTAINS(out, "surface_0/ missing");
+}
+
+TEST(InfoCommand, SummarisesADisparityMap) {
+  test::ScratchDir dir;
+  cv::Mat d(2, 2, CV_32F);
+  d.at<float>(0, 0) = 2.0f;
+  d.at<float>(0, 1) = 4.0f;
+  d.at<float>(1, 0) = 6.0f;
+  d.at<float>(1, 1) = std::numeric_limits<float>::quiet_NaN();
+  io::write_kitti_disparity(dir / "d.png", d);
+  io::write_pfm(dir / "d.pfm", d);
+  for (const char* name : {"d.png", "d.pfm"}) {
+    std::string out;
+    ASSERT_EQ(run_info((dir / name).string(), &out), 0) << out;
+    EXPECT_CONTAINS(out, "2 x 2 px");
+    EXPECT_CONTAINS(out, "75.00 %");
+    EXPECT_CONTAINS(out, "min 2.00  max 6.00  mean 4.00");
+  }
+}
+
+TEST(InfoCommand, UnknownAndMissingPathsFailWithANamedError) {
+  test::ScratchDir dir;
+  std::ofstream(dir / "notes.md") << "hello";
+  std::string out;
+  EXPECT_EQ(run_info((dir / "notes.md").string(), &out), 1);
+  EXPECT_CONTAINS(out, "notes.md");
+  EXPECT_EQ(run_info((dir / "absent").string(), &out), 1);
+  EXPECT_CONTAINS(out, "does not exist");
+  EXPECT_EQ(run_info("--help", &out), 0);
+  EXPECT_CONTAINS(out, "Examples");
+}
+
+}  // namespace
+}  // namespace planecell::services
