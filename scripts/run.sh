@@ -12,25 +12,34 @@ BIN=${PLANECELL_BUILD_DIR:-build}/services/planecell
 rm -rf "$OUT"
 mkdir -p "$OUT"
 
-echo "== 1/5 synthetic sequence: $FRAMES frames of a generated street"
+echo "== 1/7 synthetic sequence: $FRAMES frames of a generated street"
 "$BIN" synth --out "$OUT/sequence" --frames "$FRAMES" --seed 7
 echo
-echo "== 2/5 what is in it"
+echo "== 2/7 what is in it"
 "$BIN" info "$OUT/sequence"
 echo
-echo "== 3/5 SGM disparity of frame 0"
+echo "== 3/7 SGM disparity of frame 0"
 "$BIN" disparity "$OUT/sequence/image_2/000000.png" "$OUT/sequence/image_3/000000.png" \
   -o "$OUT/disparity_000000.pfm" --preview "$OUT/disparity_000000.png"
 echo
-echo "== 4/5 planecells of frame 0"
+echo "== 4/7 planecells of frame 0"
 "$BIN" extract "$OUT/sequence/image_2/000000.png" "$OUT/sequence/image_3/000000.png" \
   --disparity "$OUT/disparity_000000.pfm" --calib "$OUT/sequence/calib.txt" -o "$OUT/planecells_000000"
 echo
-echo "== 5/5 stereo accuracy against the renderer's ground truth (planecell SGM vs OpenCV SGBM)"
+echo "== 5/7 stereo accuracy against the renderer's ground truth (planecell SGM vs OpenCV SGBM)"
 "$BIN" eval-stereo --dataset synthetic --root "$OUT/sequence" --max-pairs 5 --json "$OUT/eval_stereo.json"
+echo
+echo "== 6/7 replay: SGM -> planecells -> world frame -> CRF merge into the global map (+ OctoMap baseline)"
+"$BIN" replay "$OUT/sequence" --map "$OUT/map.db" --voxel --report "$OUT/replay.json"
+echo
+echo "== 7/7 the map as coloured polygons"
+"$BIN" export "$OUT/map.db" -o "$OUT/map_surfaces.ply" --color surface
+"$BIN" export "$OUT/map.db" -o "$OUT/map_rgb.ply" --color rgb
 echo
 echo "Outputs in $OUT:"
 echo "  sequence/                 KITTI odometry layout (image_2/3, calib.txt, poses/00.txt, times.txt, GT disparity + surfaces)"
 echo "  disparity_000000.pfm/.png SGM disparity of frame 0 and its colour preview"
 echo "  planecells_000000/        overlay.png, dense.pfm, labels.png, cells.ply, cells.json"
 echo "  eval_stereo.json          accuracy table"
+echo "  map.db, replay.json       the global map (SQLite; planecell info out/demo/map.db) and the replay report"
+echo "  map_surfaces.ply, map_rgb.ply  the map coloured by surface label / image colour (MeshLab, CloudCompare)"

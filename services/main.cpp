@@ -37,6 +37,8 @@ int main(int argc, char** argv) {
   add_synth_command(app, context);
   add_info_command(app, context);
   add_extract_command(app, context);
+  add_replay_command(app, context);
+  add_export_command(app, context);
 
   try {
     app.parse(argc, argv);

@@ -5,6 +5,8 @@
 namespace planecell::services {
 
 void add_config_command(CLI::App& app, CommandContext& context);
+void add_replay_command(CLI::App& app, CommandContext& context);
+void add_export_command(CLI::App& app, CommandContext& context);
 void add_disparity_command(CLI::App& app, CommandContext& context);
 void add_eval_stereo_command(CLI::App& app, CommandContext& context);
 void add_synth_command(CLI::App& app, CommandContext& context);

@@ -14,6 +14,7 @@
 #include "io/euroc.hpp"
 #include "io/image_io.hpp"
 #include "io/kitti_odometry.hpp"
+#include "io/map_store.hpp"
 #include "services/commands/commands.hpp"
 
 namespace planecell::services {
@@ -216,6 +217,32 @@ std::string describe_image(const fs::path& path) {
   return out.str();
 }
 
+bool is_map_store(const fs::path& path) {
+  const std::string ext = lower_extension(path);
+  return fs::is_regular_file(path) && (ext == ".db" || ext == ".sqlite");
+}
+
+std::string describe_map_store(const fs::path& path) {
+  const io::MapStore store(path);
+  const map::GlobalMap global_map = io::load_map(store);
+  std::size_t planecells_with_surface = 0;
+  for (const auto& [id, cell] : global_map.cells())
+    if (cell.surface != kNoSurface) ++planecells_with_surface;
+  double area_m2 = 0.0;
+  for (const auto& [id, surface] : global_map.surfaces()) area_m2 += surface.area_m2;
+  std::ostringstream out;
+  out << std::fixed << std::setprecision(1);
+  out << "planecell map store: " << path.string() << "\n";
+  out << "  frames:       " << store.frame_count() << " committed\n";
+  out << "  cells:        " << global_map.cells().size() << " (" << planecells_with_surface
+      << " with a surface label)\n";
+  out << "  surfaces:     " << global_map.surfaces().size() << ", " << area_m2 << " m² in all\n";
+  out << "  merges:       " << store.merge_history().size() << " surface merges recorded\n";
+  out << "  map in RAM:   " << global_map.map_bytes() / 1024.0 << " kB\n";
+  out << "  file size:    " << fs::file_size(path) / 1024.0 << " kB\n";
+  return out.str();
+}
+
 /// One kind of PATH `planecell info` understands (first match wins).
 struct Describer {
   const char* kind;
@@ -224,6 +251,7 @@ struct Describer {
 };
 
 const Describer kDescribers[] = {
+    {"planecell map store (.db)", is_map_store, describe_map_store},
     {"KITTI odometry layout folder", is_kitti_sequence, describe_kitti_sequence},
     {"EuRoC folder", is_euroc_sequence, describe_euroc},
     {"disparity map", is_disparity_file, describe_disparity},
@@ -249,7 +277,8 @@ void add_info_command(CLI::App& app, CommandContext& context) {
       "info",
       "Summarise a dataset folder or file: a KITTI-odometry-layout sequence (frames, image "
       "size, camera, time span, poses, path length, GT folders), a EuRoC folder, a disparity map "
-      "(.pfm or KITTI 16-bit .png: size, density, min/max/mean) or an image.");
+      "(.pfm or KITTI 16-bit .png: size, density, min/max/mean), an image, or a map store "
+      "written by `planecell replay --map` (frames, cells, surfaces, bytes).");
   auto path = std::make_shared<std::string>();
   command->add_option("path", *path, "Folder or file to summarise")->required();
   command->footer(
@@ -259,7 +288,8 @@ void add_info_command(CLI::App& app, CommandContext& context) {
       "  planecell info V1_01_easy                           # EuRoC (folder holding mav0/)\n"
       "  planecell info training/disp_occ_0/000000_10.png    # KITTI GT disparity\n"
       "  planecell info disparity/left/A-0032-0006.pfm       # PFM disparity\n"
-      "  planecell info teddy/im2.png                        # an image\n");
+      "  planecell info teddy/im2.png                        # an image\n"
+      "  planecell info /tmp/street.db                       # a stored map\n");
   context.add(command, [path](const CommandContext&) {
     std::cout << describe_path(*path);
     return kExitOk;

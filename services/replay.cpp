@@ -1,0 +1,221 @@
+#include "services/replay.hpp"
+
+#include <spdlog/spdlog.h>
+
+#include <chrono>
+#include <memory>
+#include <set>
+#include <sstream>
+
+#include "core/error.hpp"
+#include "io/kitti_odometry.hpp"
+#include "io/map_store.hpp"
+#include "mapping/map/crf_merger.hpp"
+#include "mapping/map/global_map.hpp"
+#include "mapping/map/pose_transform.hpp"
+#include "mapping/planecell/extraction.hpp"
+#include "mapping/stereo/sgm.hpp"
+#include "mapping/voxel/voxel_map.hpp"
+#include "services/progress.hpp"
+
+namespace planecell::services {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double ms_since(Clock::time_point start) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
+}
+
+std::size_t file_bytes(const std::filesystem::path& path) {
+  std::error_code ec;
+  const auto size = std::filesystem::file_size(path, ec);
+  return ec ? 0 : static_cast<std::size_t>(size);
+}
+
+std::size_t parse_index(const std::string& text, const std::string& whole) {
+  std::size_t used = 0;
+  unsigned long long value = 0;
+  try {
+    value = std::stoull(text, &used);
+  } catch (const std::exception&) {
+    used = 0;
+  }
+  if (used != text.size() || text.empty() || text[0] == '-')
+    throw ConfigError("--frames '" + whole + "': expected A:B with non-negative integers");
+  return static_cast<std::size_t>(value);
+}
+
+}  // namespace
+
+std::pair<std::size_t, std::size_t> parse_frame_range(const std::string& text) {
+  const auto colon = text.find(':');
+  if (colon == std::string::npos)
+    throw ConfigError("--frames '" + text + "': expected A:B, A: or :B (B exclusive)");
+  const std::string a = text.substr(0, colon), b = text.substr(colon + 1);
+  const std::size_t first = a.empty() ? 0 : parse_index(a, text);
+  const std::size_t last = b.empty() ? std::numeric_limits<std::size_t>::max() : parse_index(b, text);
+  if (last <= first) throw ConfigError("--frames '" + text + "': empty range (B must be > A)");
+  return {first, last};
+}
+
+ReplayReport run_replay(const ReplayOptions& options, const AppConfig& config) {
+  const auto start = Clock::now();
+  const io::KittiOdometrySequence sequence =
+      io::open_kitti_odometry(options.sequence_dir, options.poses_path);
+  if (sequence.poses.empty())
+    throw InputError("replay: sequence '" + options.sequence_dir.string() +
+                     "' has no poses (give --poses FILE)");
+  const std::size_t first = std::min(options.first_frame, sequence.size());
+  const std::size_t last = std::min(options.last_frame, sequence.size());
+
+  ReplayReport report;
+  report.sequence = options.sequence_dir.string();
+  report.voxel = options.voxel;
+
+  std::unique_ptr<io::MapStore> store;
+  map::GlobalMap global_map(config.map);
+  std::set<std::uint64_t> committed;
+  if (options.map_path) {
+    store = std::make_unique<io::MapStore>(*options.map_path);
+    if (store->frame_count() > 0) {
+      global_map = io::load_map(*store, config.map);
+      for (auto id : store->frame_ids()) committed.insert(id);
+      spdlog::info("replay: resuming map '{}' with {} committed frames, {} cells",
+                   options.map_path->string(), committed.size(), global_map.cells().size());
+    }
+  }
+  std::unique_ptr<voxel::VoxelMap> voxel_map;
+  if (options.voxel) voxel_map = std::make_unique<voxel::VoxelMap>(config.voxel);
+
+  LatencyLog latency;
+  double plane_fraction_sum = 0.0;
+  ProgressBar progress("replay", last > first ? last - first : 0);
+  for (std::size_t index = first; index < last; ++index) {
+    const auto frame_id = static_cast<std::uint64_t>(index);
+    if (committed.contains(frame_id)) {
+      ++report.frames_resumed;
+      continue;
+    }
+    auto t = Clock::now();
+    const StereoFrame frame = io::load_kitti_frame(sequence, index);
+    latency.add("load", ms_since(t));
+    const Pose pose = *frame.pose;
+
+    t = Clock::now();
+    const cv::Mat disparity = stereo::compute_disparity(frame.left, frame.right, config.sgm);
+    latency.add("sgm", ms_since(t));
+
+    t = Clock::now();
+    extraction::PlanecellFrame cells =
+        extraction::extract_planecells(frame.left, disparity, frame.camera, config.extraction);
+    for (auto& cell : cells.cells) cell.frame_id = frame_id;
+    latency.add("extract", ms_since(t));
+
+    t = Clock::now();
+    const std::vector<Planecell> world = map::to_world(cells.cells, pose);
+    latency.add("transform", ms_since(t));
+
+    t = Clock::now();
+    const auto adjacency = map::label_adjacency(cells.labels);
+    const map::MergeReport merge = global_map.integrate(frame_id, pose, world, adjacency);
+    latency.add("merge", ms_since(t));
+
+    if (store) {
+      t = Clock::now();
+      store->commit_frame(frame_id, pose, merge, global_map);
+      latency.add("store", ms_since(t));
+    }
+    if (voxel_map) {
+      t = Clock::now();
+      const auto points = voxel::back_project(disparity, frame.left, frame.camera, pose,
+                                              config.voxel.max_range_m);
+      voxel_map->insert(points);
+      latency.add("voxel", ms_since(t));
+    }
+
+    ++report.frames;
+    report.cells_extracted += cells.cells.size();
+    report.fused_cells += merge.fused_cells;
+    report.surface_merges += merge.surface_merges.size();
+    plane_fraction_sum += cells.plane_fraction;
+    if (options.progress)
+      progress.update(index + 1 - first, "cells " + std::to_string(global_map.cells().size()));
+  }
+  progress.finish();
+
+  report.plane_fraction = report.frames > 0 ? plane_fraction_sum / static_cast<double>(report.frames) : 0.0;
+  report.cells_in_map = global_map.cells().size();
+  report.surfaces = global_map.surfaces().size();
+  report.map_bytes = global_map.map_bytes();
+  const std::size_t frames_in_map = report.frames + committed.size();
+  report.bytes_per_frame =
+      frames_in_map > 0 ? static_cast<double>(report.map_bytes) / static_cast<double>(frames_in_map) : 0.0;
+  if (store) {
+    const auto path = store->path();
+    store.reset();  // close: checkpoints the WAL into the database
+    report.store_bytes = file_bytes(path) + file_bytes(path.string() + "-wal");
+  }
+  if (voxel_map) {
+    const auto stats = voxel_map->stats();
+    report.voxel_bytes = stats.memory_bytes;
+    report.voxel_ot_bytes = stats.ot_bytes;
+    report.voxel_bt_bytes = stats.bt_bytes;
+    report.voxel_leaves = stats.occupied_voxels;
+    report.voxel_mode = config.voxel.ray_casting ? "insertPointCloud (free-space ray casting)"
+                                                 : "per-voxel updateNode + integrateNodeColor, no ray casting";
+  }
+  report.stage_latency = latency.summaries();
+  report.wall_s = ms_since(start) / 1000.0;
+  return report;
+}
+
+nlohmann::json to_json(const ReplayReport& r) {
+  nlohmann::json stages = nlohmann::json::object();
+  for (const auto& [name, s] : r.stage_latency)
+    stages[name] = {{"count", s.count}, {"p50_ms", s.p50_ms}, {"p95_ms", s.p95_ms},
+                    {"p99_ms", s.p99_ms}, {"max_ms", s.max_ms}, {"mean_ms", s.mean_ms}};
+  nlohmann::json out = {
+      {"sequence", r.sequence},         {"frames", r.frames},
+      {"frames_resumed", r.frames_resumed}, {"cells_extracted", r.cells_extracted},
+      {"plane_fraction", r.plane_fraction}, {"cells", r.cells_in_map},
+      {"surfaces", r.surfaces},         {"fused_cells", r.fused_cells},
+      {"surface_merges", r.surface_merges}, {"map_bytes", r.map_bytes},
+      {"store_bytes", r.store_bytes},   {"bytes_per_frame", r.bytes_per_frame},
+      {"stage_latency", stages},        {"wall_s", r.wall_s}};
+  if (r.voxel) {
+    out["voxel"] = {{"mode", r.voxel_mode}, {"voxel_bytes", r.voxel_bytes},
+                    {"voxel_ot_bytes", r.voxel_ot_bytes}, {"voxel_bt_bytes", r.voxel_bt_bytes},
+                    {"voxel_leaves", r.voxel_leaves}};
+  }
+  return out;
+}
+
+std::string summary_text(const ReplayReport& r) {
+  std::ostringstream out;
+  out.setf(std::ios::fixed);
+  out.precision(1);
+  out << "replay: " << r.frames << " frames";
+  if (r.frames_resumed > 0) out << " (+" << r.frames_resumed << " already in the store)";
+  out << " in " << r.wall_s << " s; " << r.cells_extracted << " cells extracted ("
+      << 100.0 * r.plane_fraction << " % with a plane)\n";
+  out << "  map: " << r.cells_in_map << " cells, " << r.surfaces << " surfaces, "
+      << r.fused_cells << " re-observations fused, " << r.surface_merges << " surface merges\n";
+  out << "  size: " << r.map_bytes / 1024.0 << " kB in RAM (" << r.bytes_per_frame / 1024.0
+      << " kB/frame)";
+  if (r.store_bytes > 0) out << ", store " << r.store_bytes / 1024.0 << " kB on disk";
+  out << "\n";
+  if (r.voxel)
+    out << "  voxel baseline (" << r.voxel_mode << "): " << r.voxel_leaves << " voxels, "
+        << r.voxel_bytes / 1024.0 << " kB in RAM, .ot " << r.voxel_ot_bytes / 1024.0 << " kB, .bt "
+        << r.voxel_bt_bytes / 1024.0 << " kB\n";
+  out << "  per-stage latency (ms, p50 / p95 / max):";
+  for (const auto& [name, s] : r.stage_latency) {
+    out.precision(1);
+    out << "\n    " << name << ": " << s.p50_ms << " / " << s.p95_ms << " / " << s.max_ms;
+  }
+  out << "\n";
+  return out.str();
+}
+
+}  // namespace planecell::services

@@ -1,0 +1,110 @@
+/// Replay end to end on a small generated street: the whole single-threaded pipeline, the map
+/// store, resuming, and frame-range parsing.
+#include <gtest/gtest.h>
+
+#include "core/error.hpp"
+#include "io/map_store.hpp"
+#include "io/synthetic/synthetic_world.hpp"
+#include "services/replay.hpp"
+#include "support/test_data.hpp"
+
+namespace planecell::services {
+namespace {
+
+class ReplayTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    SynthConfig synth;
+    synth.frames = 4;
+    synth.seed = 5;
+    synth.width = 414;  // a third of KITTI's size keeps the test fast
+    synth.height = 125;
+    io::write_sequence(io::make_street_world(synth), scratch_ / "seq");
+    config_.sgm.max_disparity = 48;
+    config_.extraction.target_cells = 150;
+  }
+  test::ScratchDir scratch_;
+  AppConfig config_;
+};
+
+TEST_F(ReplayTest, MapsEveryFrameAndStoresThem) {
+  ReplayOptions options;
+  options.sequence_dir = scratch_ / "seq";
+  options.map_path = scratch_ / "map.db";
+  options.progress = false;
+  const ReplayReport report = run_replay(options, config_);
+  EXPECT_EQ(report.frames, 4u);
+  EXPECT_GT(report.cells_extracted, 4u * 50u);
+  EXPECT_GT(report.cells_in_map, 0u);
+  EXPECT_LE(report.cells_in_map, report.cells_extracted);  // fused re-observations are not stored
+  EXPECT_GT(report.surfaces, 0u);
+  EXPECT_LT(report.surfaces, report.cells_in_map);  // coplanar cells share surfaces
+  EXPECT_GT(report.map_bytes, 0u);
+  EXPECT_GT(report.store_bytes, 0u);
+  ASSERT_EQ(report.stage_latency.size(), 6u);  // load, sgm, extract, transform, merge, store
+  const io::MapStore store(scratch_ / "map.db");
+  EXPECT_EQ(store.frame_count(), 4u);
+  EXPECT_EQ(io::load_map(store).cells().size(), report.cells_in_map);
+}
+
+TEST_F(ReplayTest, ResumesAfterTheLastCommittedFrameAndMatchesAnUninterruptedRun) {
+  ReplayOptions options;
+  options.sequence_dir = scratch_ / "seq";
+  options.progress = false;
+  options.map_path = scratch_ / "split.db";
+  options.last_frame = 2;
+  EXPECT_EQ(run_replay(options, config_).frames, 2u);
+  options.last_frame = std::numeric_limits<std::size_t>::max();
+  const ReplayReport resumed = run_replay(options, config_);
+  EXPECT_EQ(resumed.frames, 2u);
+  EXPECT_EQ(resumed.frames_resumed, 2u);
+
+  options.map_path = scratch_ / "whole.db";
+  const ReplayReport whole = run_replay(options, config_);
+  EXPECT_EQ(whole.frames, 4u);
+  const auto split_map = io::load_map(io::MapStore(scratch_ / "split.db"));
+  const auto whole_map = io::load_map(io::MapStore(scratch_ / "whole.db"));
+  EXPECT_TRUE(split_map.same_content(whole_map));
+}
+
+TEST_F(ReplayTest, VoxelBaselineIsFedTheSameFrames) {
+  ReplayOptions options;
+  options.sequence_dir = scratch_ / "seq";
+  options.voxel = true;
+  options.last_frame = 2;
+  options.progress = false;
+  const ReplayReport report = run_replay(options, config_);
+  EXPECT_EQ(report.frames, 2u);
+  EXPECT_GT(report.voxel_leaves, 1000u);
+  EXPECT_GT(report.voxel_bytes, report.voxel_bt_bytes);
+  EXPECT_GT(report.voxel_ot_bytes, report.voxel_bt_bytes);  // colour costs bytes
+  EXPECT_EQ(to_json(report)["voxel"]["voxel_leaves"].get<std::size_t>(), report.voxel_leaves);
+}
+
+TEST_F(ReplayTest, SequenceWithoutPosesIsRejectedWithAClearError) {
+  std::filesystem::remove_all(scratch_ / "seq" / "poses");
+  ReplayOptions options;
+  options.sequence_dir = scratch_ / "seq";
+  options.progress = false;
+  try {
+    run_replay(options, config_);
+    FAIL() << "expected InputError";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("no poses"), std::string::npos) << e.what();
+  }
+}
+
+TEST(ReplayFrameRange, ParsesBoundsAndRejectsNonsense) {
+  using Range = std::pair<std::size_t, std::size_t>;
+  EXPECT_EQ(parse_frame_range("3:10"), Range(3, 10));
+  EXPECT_EQ(parse_frame_range("5:").first, 5u);
+  EXPECT_EQ(parse_frame_range("5:").second, std::numeric_limits<std::size_t>::max());
+  EXPECT_EQ(parse_frame_range(":7"), Range(0, 7));
+  EXPECT_THROW(parse_frame_range("7"), ConfigError);
+  EXPECT_THROW(parse_frame_range("7:3"), ConfigError);
+  EXPECT_THROW(parse_frame_range("a:b"), ConfigError);
+  EXPECT_THROW(parse_frame_range("-1:4"), ConfigError);
+}
+
+}  // namespace
+}  // namespace planecell::services
