@@ -56,28 +56,33 @@ void validate_sgm_input(const cv::Mat& left, const cv::Mat& right, const SgmConf
 }
 
 cv::Mat compute_disparity(const cv::Mat& left, const cv::Mat& right, const SgmConfig& config) {
+  return detail::compute_disparity_with(left, right, config, detail::best_aggregation_kernel());
+}
+
+cv::Mat detail::compute_disparity_with(const cv::Mat& left, const cv::Mat& right,
+                                       const SgmConfig& config, AggregationKernel kernel) {
   validate_sgm_input(left, right, config);
   const cv::Mat gray_l = to_gray(left), gray_r = to_gray(right);
   const auto census_l =
-      detail::census_transform(gray_l, config.census_width, config.census_height, config.threads);
+      census_transform(gray_l, config.census_width, config.census_height, config.threads);
   const auto census_r =
-      detail::census_transform(gray_r, config.census_width, config.census_height, config.threads);
+      census_transform(gray_r, config.census_width, config.census_height, config.threads);
   // The two large volumes (cost: W·H·D_p bytes, parked sums: twice that) are kept per calling
   // thread between calls, so that a stream of frames does not fault ~180 MB in every frame.
-  thread_local std::unique_ptr<detail::Volume<std::uint8_t>> cost;
-  thread_local std::unique_ptr<detail::Volume<std::uint16_t>> parked;
+  thread_local std::unique_ptr<Volume<std::uint8_t>> cost;
+  thread_local std::unique_ptr<Volume<std::uint16_t>> parked;
   const std::size_t cells = static_cast<std::size_t>(left.cols) * left.rows *
-                            detail::padded_disparities(config.max_disparity);
+                            padded_disparities(config.max_disparity);
   if (!cost || cost->size < cells) {
     cost.reset();
     parked.reset();
-    cost = std::make_unique<detail::Volume<std::uint8_t>>(cells);
-    parked = std::make_unique<detail::Volume<std::uint16_t>>(cells);
+    cost = std::make_unique<Volume<std::uint8_t>>(cells);
+    parked = std::make_unique<Volume<std::uint16_t>>(cells);
   }
-  detail::cost_volume(census_l, census_r, detail::epipolar_gradient(gray_l),
-                      detail::epipolar_gradient(gray_r), config, config.threads, *cost);
-  cv::Mat disparity = detail::aggregate_and_select(*cost, gray_l, config, *parked);
-  detail::remove_speckles(disparity, config);
+  cost_volume(census_l, census_r, epipolar_gradient(gray_l), epipolar_gradient(gray_r), config,
+              config.threads, *cost);
+  cv::Mat disparity = aggregate_and_select(*cost, gray_l, config, *parked, kernel);
+  remove_speckles(disparity, config);
   return disparity;
 }
 

@@ -98,10 +98,29 @@ inline bool is_unique(int best, int second, int ratio) {
   return static_cast<long>(second) * (100 - ratio) >= static_cast<long>(best) * 100;
 }
 
+/// The AVX-512 aggregation kernel is compiled with GCC's target pragma (x86-64 GCC only).
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
+#define PLANECELL_SGM_AVX512_KERNEL 1
+#endif
+
+/// SIMD kernel of the aggregation (Eq. 2); all give bit-identical results.
+enum class AggregationKernel { portable, avx2, avx512 };
+/// Whether `kernel` was compiled in (AVX2) and this CPU and OS run it (AVX-512BW/VL, checked
+/// at run time).
+bool aggregation_kernel_supported(AggregationKernel kernel);
+/// The fastest supported kernel: AVX-512BW, else AVX2, else portable.
+AggregationKernel best_aggregation_kernel();
+
 /// Eq. 2 over all paths for the whole image: returns the disparity before speckle removal.
 /// `parked` (≥ W·H·D_p values) holds the partial sums handed between the two passes.
+/// Throws std::invalid_argument when `kernel` is not supported.
 cv::Mat aggregate_and_select(const Volume<std::uint8_t>& cost, const cv::Mat& gray_left,
-                             const SgmConfig& config, Volume<std::uint16_t>& parked);
+                             const SgmConfig& config, Volume<std::uint16_t>& parked,
+                             AggregationKernel kernel);
+
+/// compute_disparity with an explicit aggregation kernel (tests compare every kernel).
+cv::Mat compute_disparity_with(const cv::Mat& left, const cv::Mat& right,
+                               const SgmConfig& config, AggregationKernel kernel);
 
 /// Small-speckle removal (cv::filterSpeckles on a 1/16 px fixed-point copy); in place, NaN = invalid.
 void remove_speckles(cv::Mat& disparity, const SgmConfig& config);

@@ -9,6 +9,7 @@
 
 #include "io/image_io.hpp"
 #include "mapping/stereo/sgm.hpp"
+#include "mapping/stereo/sgm_detail.hpp"
 #include "support/test_data.hpp"
 
 namespace {
@@ -53,6 +54,33 @@ BENCHMARK(BM_PlanecellSgm)
     ->Args({1, 8})
     ->Args({2, 8})
     ->Args({2, 4})
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
+
+/// 8 paths, one aggregation kernel (0 portable, 1 AVX2, 2 AVX-512BW) per run; with 1 thread
+/// the CPU time column is the whole computation.
+void BM_PlanecellSgmKernel(benchmark::State& state) {
+  using planecell::stereo::detail::AggregationKernel;
+  const auto kernel = static_cast<AggregationKernel>(state.range(0));
+  if (!planecell::stereo::detail::aggregation_kernel_supported(kernel)) {
+    state.SkipWithError("aggregation kernel not supported on this CPU");
+    return;
+  }
+  const Pair& pair = kitti_pair();
+  planecell::SgmConfig config;
+  config.max_disparity = 128;
+  config.threads = static_cast<int>(state.range(1));
+  for (auto _ : state)
+    benchmark::DoNotOptimize(
+        planecell::stereo::detail::compute_disparity_with(pair.left, pair.right, config, kernel));
+  state.SetLabel(pair.source);
+}
+BENCHMARK(BM_PlanecellSgmKernel)
+    ->ArgNames({"kernel", "threads"})
+    ->Args({1, 1})
+    ->Args({2, 1})
+    ->Args({1, 2})
+    ->Args({2, 2})
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();
 
