@@ -8,6 +8,7 @@
 #include <sstream>
 
 #include "core/error.hpp"
+#include "mapping/planecell/extraction.hpp"
 #include "mapping/stereo/sgm.hpp"
 
 namespace planecell::services::eval {
@@ -58,6 +59,13 @@ void append_method_json(std::ostringstream& j, const MethodResult& m) {
     j << ", ";
     append_errors_json(j, "noc", m.noc);
   }
+  if (m.points.gt_pixels > 0) {
+    j << ", \"points\": {\"gt_pixels\": " << m.points.gt_pixels;
+    for (std::size_t k = 0; k < kPointRadiiM.size(); ++k)
+      j << ", \"within_" << std::lround(100.0 * kPointRadiiM[k])
+        << "cm_pct\": " << json_number(m.points.within_pct(k));
+    j << "}";
+  }
   j << "}";
 }
 
@@ -82,7 +90,53 @@ void append_row(std::ostringstream& t, const std::string& pair, const MethodResu
     << fixed(m.time_ms, 1) << "\n";
 }
 
+void append_points_row(std::ostringstream& t, const std::string& pair, const MethodResult& m) {
+  if (m.points.gt_pixels == 0) return;
+  t << std::left << std::setw(24) << pair.substr(0, 23) << std::setw(18) << m.method << std::right;
+  for (std::size_t k = 0; k < kPointRadiiM.size(); ++k)
+    t << std::setw(9) << fixed(m.points.within_pct(k));
+  t << "\n";
+}
+
 }  // namespace
+
+PointErrors& PointErrors::operator+=(const PointErrors& o) {
+  gt_pixels += o.gt_pixels;
+  for (std::size_t k = 0; k < within.size(); ++k) within[k] += o.within[k];
+  return *this;
+}
+
+double PointErrors::within_pct(std::size_t k) const { return pct(within.at(k), gt_pixels); }
+
+PointErrors evaluate_points(const cv::Mat& estimate, const cv::Mat& gt,
+                            const StereoCamera& camera) {
+  if (estimate.type() != CV_32F || gt.type() != CV_32F)
+    throw InputError("evaluate_points: estimate and ground truth must be CV_32F disparity");
+  if (estimate.size() != gt.size())
+    throw InputError("evaluate_points: estimate is " + std::to_string(estimate.cols) + "x" +
+                     std::to_string(estimate.rows) + " but ground truth is " +
+                     std::to_string(gt.cols) + "x" + std::to_string(gt.rows));
+  camera.validate("evaluate_points camera");
+  const double fb = camera.fx * camera.baseline_m;  // Z(d) = f_x·B / d
+  PointErrors e;
+  for (int y = 0; y < gt.rows; ++y) {
+    const float* g = gt.ptr<float>(y);
+    const float* d = estimate.ptr<float>(y);
+    const double ry = (y - camera.cy) / camera.fy;
+    for (int x = 0; x < gt.cols; ++x) {
+      if (!(g[x] > 0.0f)) continue;
+      ++e.gt_pixels;
+      if (!(d[x] > 0.0f)) continue;  // NaN or ≤ 0: no point
+      const double rx = (x - camera.cx) / camera.fx;
+      // ‖X(d) − X(d_gt)‖ = |Z(d) − Z(d_gt)|·‖(r_x, r_y, 1)‖ (both points lie on the pixel's ray).
+      const double distance_m =
+          std::abs(fb / d[x] - fb / g[x]) * std::sqrt(rx * rx + ry * ry + 1.0);
+      for (std::size_t k = 0; k < kPointRadiiM.size(); ++k)
+        e.within[k] += distance_m <= kPointRadiiM[k];
+    }
+  }
+  return e;
+}
 
 DisparityErrors& DisparityErrors::operator+=(const DisparityErrors& o) {
   gt_pixels += o.gt_pixels;
@@ -134,9 +188,9 @@ DisparityErrors evaluate_disparity(const cv::Mat& estimate, const cv::Mat& gt) {
 cv::Mat opencv_sgbm_disparity(const cv::Mat& left, const cv::Mat& right, int max_disparity,
                               int mode) {
   const int channels = left.channels();
-  auto sgbm = cv::StereoSGBM::create(0, (max_disparity + 15) / 16 * 16, kSgbmBlock,
-                                     8 * channels * kSgbmBlock * kSgbmBlock,
-                                     32 * channels * kSgbmBlock * kSgbmBlock, 1, 0, 10, 100, 2, mode);
+  auto sgbm = cv::StereoSGBM::create(
+      0, (max_disparity + 15) / 16 * 16, kSgbmBlock, 8 * channels * kSgbmBlock * kSgbmBlock,
+      32 * channels * kSgbmBlock * kSgbmBlock, 1, 0, 10, 100, 2, mode);
   cv::Mat fixed_point;
   sgbm->compute(left, right, fixed_point);
   cv::Mat disparity;
@@ -145,7 +199,8 @@ cv::Mat opencv_sgbm_disparity(const cv::Mat& left, const cv::Mat& right, int max
   return disparity;
 }
 
-std::vector<StereoMethod> default_stereo_methods(const SgmConfig& sgm) {
+std::vector<StereoMethod> default_stereo_methods(const SgmConfig& sgm,
+                                                 const ExtractionConfig& extraction) {
   std::vector<StereoMethod> methods;
   std::ostringstream p;
   p << "census " << sgm.census_width << "x" << sgm.census_height << ", lambda_grad "
@@ -164,10 +219,23 @@ std::vector<StereoMethod> default_stereo_methods(const SgmConfig& sgm) {
                        return opencv_sgbm_disparity(s.left, s.right, s.max_disparity,
                                                     cv::StereoSGBM::MODE_SGBM);
                      }});
-  methods.push_back({"opencv-sgbm-3way", "MODE_SGBM_3WAY, " + sgbm_params,
-                     [](const io::StereoSample& s) {
-                       return opencv_sgbm_disparity(s.left, s.right, s.max_disparity,
-                                                    cv::StereoSGBM::MODE_SGBM_3WAY);
+  methods.push_back(
+      {"opencv-sgbm-3way", "MODE_SGBM_3WAY, " + sgbm_params, [](const io::StereoSample& s) {
+         return opencv_sgbm_disparity(s.left, s.right, s.max_disparity,
+                                      cv::StereoSGBM::MODE_SGBM_3WAY);
+       }});
+  std::ostringstream q;
+  q << "dense plane disparity of extract_planecells on planecell-sgm: " << extraction.target_cells
+    << " cells, lambda_reg " << extraction.lambda_reg << ", lambda_depth "
+    << extraction.lambda_depth << ", RANSAC " << extraction.ransac_iterations << " x "
+    << extraction.inlier_threshold_px << " px";
+  methods.push_back({"planecell", q.str(), [sgm, extraction](const io::StereoSample& s) {
+                       SgmConfig c = sgm;
+                       c.max_disparity = std::min(s.max_disparity, s.left.cols - 1);
+                       const cv::Mat raw = stereo::compute_disparity(s.left, s.right, c);
+                       return extraction::extract_planecells(
+                                  s.left, raw, s.camera.value_or(StereoCamera{}), extraction)
+                           .dense_disparity;
                      }});
   return methods;
 }
@@ -181,11 +249,12 @@ PairResult evaluate_pair(const io::StereoSample& sample, const std::vector<Stere
     m.method = method.name;
     const auto start = std::chrono::steady_clock::now();
     const cv::Mat disparity = method.run(sample);
-    m.time_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
-                    .count();
+    m.time_ms =
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
     m.all = evaluate_disparity(disparity, sample.gt_disparity);
     if (!sample.gt_disparity_noc.empty())
       m.noc = evaluate_disparity(disparity, sample.gt_disparity_noc);
+    if (sample.camera) m.points = evaluate_points(disparity, sample.gt_disparity, *sample.camera);
     result.methods.push_back(m);
   }
   return result;
@@ -200,6 +269,7 @@ std::vector<MethodResult> pooled_results(const std::vector<PairResult>& pairs,
       total[k].time_ms += pair.methods[k].time_ms / static_cast<double>(pairs.size());
       total[k].all += pair.methods[k].all;
       total[k].noc += pair.methods[k].noc;
+      total[k].points += pair.methods[k].points;
     }
   return total;
 }
@@ -214,14 +284,29 @@ std::string format_table(const std::vector<PairResult>& pairs,
        "bad-t: |d - d_gt| > t px (GT pixel units); D1: > 3 px and > 5 % of d_gt (KITTI).\n\n";
   t << std::left << std::setw(24) << "pair" << std::setw(18) << "method" << std::right
     << std::setw(7) << "bad1" << std::setw(7) << "bad2" << std::setw(7) << "bad4" << std::setw(7)
-    << "D1" << std::setw(8) << "dens" << " |" << std::setw(7) << "bad2e" << std::setw(7) << "D1e"
-    << std::setw(6) << "MAE" << " |" << std::setw(7) << "noc:b2" << std::setw(7) << "noc:D1"
-    << " |" << std::setw(8) << "ms" << "\n";
+    << "D1" << std::setw(8) << "dens"
+    << " |" << std::setw(7) << "bad2e" << std::setw(7) << "D1e" << std::setw(6) << "MAE"
+    << " |" << std::setw(7) << "noc:b2" << std::setw(7) << "noc:D1"
+    << " |" << std::setw(8) << "ms"
+    << "\n";
   for (const auto& pair : pairs)
     for (const auto& m : pair.methods) append_row(t, pair.pair, m);
   t << "\n";
-  for (const auto& m : pooled_results(pairs, methods))
-    append_row(t, "OVERALL (pooled px)", m);
+  const auto total = pooled_results(pairs, methods);
+  for (const auto& m : total) append_row(t, "OVERALL (pooled px)", m);
+  bool any_points = false;
+  for (const auto& m : total) any_points |= m.points.gt_pixels > 0;
+  if (!any_points) return t.str();
+  t << "\n3D accuracy (paper Table 1), pairs with a camera: % of all GT pixels whose point\n"
+       "X(u, v, d) lies within r of the GT point X(u, v, d_gt) (missing counts as outside).\n\n";
+  t << std::left << std::setw(24) << "pair" << std::setw(18) << "method" << std::right;
+  for (double r : kPointRadiiM)
+    t << std::setw(9) << ("<=" + std::to_string(std::lround(100 * r)) + "cm");
+  t << "\n";
+  for (const auto& pair : pairs)
+    for (const auto& m : pair.methods) append_points_row(t, pair.pair, m);
+  t << "\n";
+  for (const auto& m : total) append_points_row(t, "OVERALL (pooled px)", m);
   return t.str();
 }
 

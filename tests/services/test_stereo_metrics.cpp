@@ -5,6 +5,7 @@
 #include <opencv2/core.hpp>
 
 #include "core/error.hpp"
+#include "core/stereo_camera.hpp"
 #include "services/eval/stereo_metrics.hpp"
 
 namespace planecell::services::eval {
@@ -59,9 +60,9 @@ TEST(StereoMetrics, MethodsRunOnASampleAndScoreAShiftedTexture) {
   sample.gt_disparity.colRange(0, 6).setTo(kNaN);
   sample.max_disparity = 32;
   const auto methods = default_stereo_methods(SgmConfig{});
-  ASSERT_EQ(methods.size(), 3u);
+  ASSERT_EQ(methods.size(), 4u);  // planecell-sgm, opencv-sgbm, opencv-sgbm-3way, planecell
   const PairResult result = evaluate_pair(sample, methods);
-  ASSERT_EQ(result.methods.size(), 3u);
+  ASSERT_EQ(result.methods.size(), 4u);
   for (const auto& m : result.methods) {
     EXPECT_GT(m.all.estimated, m.all.gt_pixels / 2) << m.method;
     EXPECT_LT(m.all.estimated_pct(m.all.bad1), 5.0) << m.method;
@@ -69,7 +70,86 @@ TEST(StereoMetrics, MethodsRunOnASampleAndScoreAShiftedTexture) {
   const std::string json = format_json("synthetic", {result}, methods);
   EXPECT_NE(json.find("\"planecell-sgm\""), std::string::npos);
   EXPECT_NE(json.find("\"opencv-sgbm-3way\""), std::string::npos);
+  EXPECT_NE(json.find("\"planecell\""), std::string::npos);
+  EXPECT_EQ(json.find("\"points\""), std::string::npos);  // no camera → no 3D figures
   EXPECT_NE(format_table({result}, methods).find("OVERALL"), std::string::npos);
+  EXPECT_EQ(format_table({result}, methods).find("3D accuracy"), std::string::npos);
+}
+
+TEST(StereoMetrics, PointAccuracyOnHandComputedPixels) {
+  // f = 100 px, B = 0.5 m, principal point (1, 0): Z(d) = 50 / d m, and the pixel ray factor is
+  // ‖((u − 1)/100, v/100, 1)‖.
+  StereoCamera camera;
+  camera.fx = camera.fy = 100.0;
+  camera.cx = 1.0;
+  camera.cy = 0.0;
+  camera.baseline_m = 0.5;
+  camera.width = 3;
+  camera.height = 2;
+  // (0,0): GT 10 (Z 5 m), est 9.9 (Z 5.0505 m) → 5.05 cm · √(1 + 0.0001) = 5.05 cm: all radii.
+  // (1,0): GT 10, est 9.5 (Z 5.2632 m) → 26.3 cm on the axis: within 50 and 100 cm only.
+  // (2,0): GT 5 (Z 10 m), est 5.5 (Z 9.0909 m) → 90.9 cm · 1.00005 = 90.9 cm: 100 cm only.
+  // Row 1: GT 20 with a missing estimate (counts, outside every radius); unknown GT skipped.
+  const cv::Mat gt = (cv::Mat_<float>(2, 3) << 10, 10, 5, 20, 0, kNaN);
+  const cv::Mat est = (cv::Mat_<float>(2, 3) << 9.9f, 9.5f, 5.5f, kNaN, 3, 3);
+  const PointErrors e = evaluate_points(est, gt, camera);
+  EXPECT_EQ(e.gt_pixels, 4);
+  EXPECT_EQ(e.within[0], 1);  // 10 cm
+  EXPECT_EQ(e.within[1], 1);  // 20 cm
+  EXPECT_EQ(e.within[2], 2);  // 50 cm
+  EXPECT_EQ(e.within[3], 3);  // 100 cm
+  EXPECT_DOUBLE_EQ(e.within_pct(3), 75.0);
+  // On the optical axis, GT 10 and estimate 9.8: |50/9.8 − 5| = 10.2 cm → just outside 10 cm,
+  // inside 20 cm.
+  const cv::Mat one_gt = (cv::Mat_<float>(1, 1) << 10);
+  camera.cx = 0.0;
+  camera.width = camera.height = 1;
+  const PointErrors f = evaluate_points((cv::Mat_<float>(1, 1) << 9.8f), one_gt, camera);
+  EXPECT_EQ(f.within[0], 0);
+  EXPECT_EQ(f.within[1], 1);
+  PointErrors total = e;
+  total += f;
+  EXPECT_EQ(total.gt_pixels, 5);
+  EXPECT_EQ(total.within[1], 2);
+  EXPECT_THROW(evaluate_points(cv::Mat(1, 2, CV_32F), one_gt, camera), InputError);
+  camera.baseline_m = 0.0;
+  EXPECT_THROW(evaluate_points(one_gt, one_gt, camera), ConfigError);
+}
+
+TEST(StereoMetrics, PlanecellMethodAndPointTableWithACamera) {
+  // A fronto-parallel textured wall at d = 6 px seen by a known camera: the planecell method's
+  // dense disparity is ~6 everywhere, so nearly all GT points lie within 10 cm
+  // (f = 100, B = 0.1 m: Z = 10/6 m, and ±0.25 px moves the point by < 8 cm).
+  cv::Mat texture(80, 180, CV_8UC3);
+  cv::RNG rng(3);
+  rng.fill(texture, cv::RNG::UNIFORM, 0, 255);
+  io::StereoSample sample;
+  sample.name = "wall6";
+  sample.right = texture(cv::Rect(10, 0, 160, 80)).clone();
+  sample.left = texture(cv::Rect(4, 0, 160, 80)).clone();
+  sample.gt_disparity = cv::Mat(80, 160, CV_32F, cv::Scalar(6.0f));
+  sample.max_disparity = 32;
+  StereoCamera camera;
+  camera.fx = camera.fy = 100.0;
+  camera.cx = 80.0;
+  camera.cy = 40.0;
+  camera.baseline_m = 0.1;
+  camera.width = 160;
+  camera.height = 80;
+  sample.camera = camera;
+  ExtractionConfig extraction;
+  extraction.target_cells = 20;
+  const auto methods = default_stereo_methods(SgmConfig{}, extraction);
+  const PairResult result = evaluate_pair(sample, methods);
+  ASSERT_EQ(result.methods.size(), 4u);
+  const MethodResult& planecell = result.methods[3];
+  ASSERT_EQ(planecell.method, "planecell");
+  EXPECT_GT(planecell.all.density_pct(), 99.0);
+  EXPECT_EQ(planecell.points.gt_pixels, 80 * 160);
+  EXPECT_GT(planecell.points.within_pct(0), 90.0);
+  const std::string json = format_json("synthetic", {result}, methods);
+  EXPECT_NE(json.find("\"within_10cm_pct\""), std::string::npos);
+  EXPECT_NE(format_table({result}, methods).find("3D accuracy"), std::string::npos);
 }
 
 }  // namespace
