@@ -3,6 +3,7 @@
 /// Run: build-*/tests/bench_merge  (counters: bytes_per_frame, cells, surfaces).
 #include <benchmark/benchmark.h>
 
+#include "support/planecell_fixtures.hpp"
 #include "mapping/map/global_map.hpp"
 
 namespace {
@@ -11,20 +12,7 @@ using planecell::Planecell;
 using planecell::Pose;
 namespace map = planecell::map;
 
-Planecell rect_cell(std::uint32_t id, const Eigen::Vector3f& corner, const Eigen::Vector3f& e1,
-                    const Eigen::Vector3f& e2, int colour_bin) {
-  Planecell c;
-  c.id = id;
-  c.has_plane = true;
-  c.vertices_m = {corner, corner + e1, corner + e1 + e2, corner + e2};
-  const Eigen::Vector3d n = e1.cross(e2).cast<double>().normalized();
-  c.plane.normal = n;
-  c.plane.offset = -n.dot(corner.cast<double>());
-  c.histogram.fill(0.0f);
-  c.histogram[colour_bin] = 1.0f;
-  c.area_px = 400;
-  return c;
-}
+using planecell::test::rect_cell;
 
 /// Cells seen at frame f: road x ∈ [−4, 4], z ∈ [f + 2, f + 14) at y = 1.5; walls at x = ±5.
 /// Cells are offset by a frame-dependent fraction so re-observations never align exactly.

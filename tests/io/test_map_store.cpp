@@ -10,6 +10,7 @@
 #include <fstream>
 #include <sstream>
 
+#include "support/planecell_fixtures.hpp"
 #include "core/error.hpp"
 #include "io/map_store.hpp"
 #include "support/test_data.hpp"
@@ -19,17 +20,12 @@ namespace {
 
 const Eigen::Vector3f kX(1, 0, 0), kY(0, 1, 0), kZ(0, 0, 1);
 
+/// The shared rectangular cell with every stored field set to a non-default value (so a lossy
+/// round trip of any field shows).
 Planecell rect_cell(std::uint32_t id, const Eigen::Vector3f& corner, const Eigen::Vector3f& e1,
                     const Eigen::Vector3f& e2, int colour_bin) {
-  Planecell c;
-  c.id = id;
-  c.has_plane = true;
-  c.vertices_m = {corner, corner + e1, corner + e1 + e2, corner + e2};
-  const Eigen::Vector3d n = e1.cross(e2).cast<double>().normalized();
-  c.plane.normal = n;
-  c.plane.offset = -n.dot(corner.cast<double>());
+  Planecell c = test::rect_cell(id, corner, e1, e2, colour_bin);
   c.disparity_plane = {0.01 * id, -0.02, 30.0 + id};
-  c.histogram.fill(0.0f);
   c.histogram[colour_bin] = 0.75f;
   c.histogram[(colour_bin + 1) % kColourHistogramBins] = 0.25f;
   c.mean_rgb = Eigen::Vector3f(4.0f * colour_bin, 100.3f, 50.1f);

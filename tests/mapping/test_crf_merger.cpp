@@ -4,6 +4,7 @@
 
 #include <opencv2/core.hpp>
 
+#include "support/planecell_fixtures.hpp"
 #include "core/error.hpp"
 #include "mapping/map/crf_merger.hpp"
 #include "mapping/map/global_map.hpp"
@@ -11,23 +12,7 @@
 namespace planecell::map {
 namespace {
 
-/// A rectangular cell corner, corner+e1, corner+e1+e2, corner+e2 with a one-bin colour histogram.
-Planecell rect_cell(std::uint32_t id, const Eigen::Vector3f& corner, const Eigen::Vector3f& e1,
-                    const Eigen::Vector3f& e2, int colour_bin) {
-  Planecell c;
-  c.id = id;
-  c.has_plane = true;
-  c.vertices_m = {corner, corner + e1, corner + e1 + e2, corner + e2};
-  const Eigen::Vector3d n = e1.cross(e2).cast<double>().normalized();
-  c.plane.normal = n;
-  c.plane.offset = -n.dot(corner.cast<double>());
-  c.histogram.fill(0.0f);
-  c.histogram[colour_bin] = 1.0f;
-  c.mean_rgb = Eigen::Vector3f(4.0f * colour_bin, 100.0f, 50.0f);
-  c.area_px = 400;
-  c.vertices_px = {{0, 0}, {20, 0}, {20, 20}, {0, 20}};
-  return c;
-}
+using test::rect_cell;
 
 const Eigen::Vector3f kX(1, 0, 0), kY(0, 1, 0), kZ(0, 0, 1);
 
