@@ -1,4 +1,5 @@
 /// EuRoC MAV reader: calibration, ground truth, stereo rectification.
+#include "io/paths.hpp"
 #include "io/euroc.hpp"
 
 #include <spdlog/spdlog.h>
@@ -21,14 +22,6 @@ namespace {
 
 namespace fs = std::filesystem;
 
-bool is_file(const fs::path& p) {
-  std::error_code ec;
-  return fs::is_regular_file(p, ec);
-}
-bool is_dir(const fs::path& p) {
-  std::error_code ec;
-  return fs::is_directory(p, ec);
-}
 
 std::string read_text(const fs::path& path, const std::string& what) {
   if (!is_file(path)) throw InputError(what + " '" + path.string() + "': file not found");

@@ -1,5 +1,6 @@
 /// Stereo pairs with ground truth: Middlebury 2001–2006 and 2014, KITTI stereo 2012/2015,
 /// synthetic sequences.
+#include "io/paths.hpp"
 #include "io/stereo_datasets.hpp"
 
 #include <spdlog/spdlog.h>
@@ -23,14 +24,6 @@ namespace {
 
 namespace fs = std::filesystem;
 
-bool is_file(const fs::path& p) {
-  std::error_code ec;
-  return fs::is_regular_file(p, ec);
-}
-bool is_dir(const fs::path& p) {
-  std::error_code ec;
-  return fs::is_directory(p, ec);
-}
 
 std::string lower(std::string s) {
   std::transform(s.begin(), s.end(), s.begin(), [](unsigned char c) { return std::tolower(c); });

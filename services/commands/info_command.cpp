@@ -9,6 +9,7 @@
 #include <opencv2/core.hpp>
 #include <sstream>
 
+#include "io/paths.hpp"
 #include "core/error.hpp"
 #include "io/disparity_io.hpp"
 #include "io/euroc.hpp"
@@ -21,15 +22,9 @@ namespace planecell::services {
 namespace {
 
 namespace fs = std::filesystem;
+using io::is_dir;
+using io::is_file;
 
-bool is_dir(const fs::path& p) {
-  std::error_code ec;
-  return fs::is_directory(p, ec);
-}
-bool is_file(const fs::path& p) {
-  std::error_code ec;
-  return fs::is_regular_file(p, ec);
-}
 
 std::string lower_extension(const fs::path& p) {
   std::string ext = p.extension().string();

@@ -8,6 +8,7 @@
 #include <opencv2/core.hpp>
 #include <opencv2/features2d.hpp>
 
+#include "support/expect_error.hpp"
 #include "core/error.hpp"
 #include "io/euroc.hpp"
 #include "io/image_io.hpp"
@@ -18,19 +19,8 @@ namespace {
 
 namespace fs = std::filesystem;
 
-#define EXPECT_CONTAINS(text, needle) \
-  EXPECT_NE(std::string(text).find(needle), std::string::npos) << "'" << (text) << "' lacks '" << (needle) << "'"
 
-template <class Fn>
-std::string input_error_of(Fn&& fn) {
-  try {
-    fn();
-  } catch (const InputError& e) {
-    return e.what();
-  }
-  ADD_FAILURE() << "no InputError";
-  return {};
-}
+using test::input_error_of;
 
 void write_text(const fs::path& path, const std::string& text) {
   fs::create_directories(path.parent_path());

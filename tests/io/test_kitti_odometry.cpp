@@ -5,6 +5,7 @@
 #include <fstream>
 #include <opencv2/core.hpp>
 
+#include "support/expect_error.hpp"
 #include "core/error.hpp"
 #include "io/image_io.hpp"
 #include "io/kitti_odometry.hpp"
@@ -35,19 +36,8 @@ void write_text(const fs::path& path, const std::string& text) {
   std::ofstream(path) << text;
 }
 
-template <class Fn>
-std::string input_error_of(Fn&& fn) {
-  try {
-    fn();
-  } catch (const InputError& e) {
-    return e.what();
-  }
-  ADD_FAILURE() << "no InputError";
-  return {};
-}
+using test::input_error_of;
 
-#define EXPECT_CONTAINS(text, needle) \
-  EXPECT_NE(std::string(text).find(needle), std::string::npos) << "'" << (text) << "' lacks '" << (needle) << "'"
 
 /// A small KITTI-layout sequence: `frames` 8×6 pairs, calib.txt, times.txt, and cam0 poses that
 /// drive 1 m forward per frame while turning 90° about y at frame 1.

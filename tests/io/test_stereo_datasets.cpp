@@ -5,6 +5,7 @@
 #include <fstream>
 #include <opencv2/core.hpp>
 
+#include "support/expect_error.hpp"
 #include "core/error.hpp"
 #include "io/disparity_io.hpp"
 #include "io/image_io.hpp"
@@ -16,19 +17,8 @@ namespace {
 
 namespace fs = std::filesystem;
 
-#define EXPECT_CONTAINS(text, needle) \
-  EXPECT_NE(std::string(text).find(needle), std::string::npos) << "'" << (text) << "' lacks '" << (needle) << "'"
 
-template <class Fn>
-std::string input_error_of(Fn&& fn) {
-  try {
-    fn();
-  } catch (const InputError& e) {
-    return e.what();
-  }
-  ADD_FAILURE() << "no InputError";
-  return {};
-}
+using test::input_error_of;
 
 void write_pair(const fs::path& left, const fs::path& right, int width, int height) {
   write_image(left, cv::Mat(height, width, CV_8UC3, cv::Scalar(10, 20, 30)));

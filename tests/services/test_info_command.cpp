@@ -5,6 +5,7 @@
 #include <fstream>
 #include <opencv2/core.hpp>
 
+#include "support/expect_error.hpp"
 #include "io/disparity_io.hpp"
 #include "io/image_io.hpp"
 #include "support/test_data.hpp"
@@ -14,8 +15,6 @@ namespace {
 
 namespace fs = std::filesystem;
 
-#define EXPECT_CONTAINS(text, needle) \
-  EXPECT_NE(std::string(text).find(needle), std::string::npos) << "'" << (text) << "' lacks '" << (needle) << "'"
 
 int run_info(const std::string& args, std::string* output) {
   return test::run_command(test::planecell_binary() + " info " + args, output);
