@@ -125,7 +125,8 @@ SyntheticView render_view(const SyntheticWorld& world, const Pose& T_world_cam,
 struct SequenceStats {
   std::size_t frames = 0;
   double render_ms = 0.0;  ///< total, both views + GT
-  double write_ms = 0.0;   ///< total, PNG encoding and file writes
+  double write_ms = 0.0;   ///< total over the two writer tasks (PNG encoding + file writes),
+                           ///< which run on their own threads while the next frame renders
   double path_length_m = 0.0;
   std::size_t surfaces = 0;
 };
