@@ -88,6 +88,29 @@ void gather_block(const SuperpixelState& s, int u0, int v0, int u1, int v1,
   b.has_disparity = 2 * valid >= b.pixels;  // d̄_b only when half of the block is matched
 }
 
+
+/// The label the block should carry: its own, or the distinct 4-neighbour label whose block score
+/// (E's change when the block joins it, see block_score) is strictly the highest. Ties keep the
+/// current label, so a move always increases E.
+int best_neighbour_label(const SuperpixelState& s, int label, const std::array<int, 4>& neighbours,
+                         const BlockData& block) {
+  double best = block_score(s, label, block);
+  int best_label = label;
+  for (int k = 0; k < 4; ++k) {
+    const int nl = neighbours[k];
+    if (nl < 0 || nl == label) continue;
+    bool seen = false;
+    for (int j = 0; j < k; ++j) seen |= (neighbours[j] == nl);
+    if (seen) continue;
+    const double score = block_score(s, nl, block);
+    if (score > best + 1e-12) {
+      best = score;
+      best_label = nl;
+    }
+  }
+  return best_label;
+}
+
 /// One sweep of b×b blocks (b ≥ 2) over the tile grid; returns the number of moves.
 int block_sweep(SuperpixelState& s, int b, std::vector<int>& tiles, int tiles_x, int tiles_y,
                 bool backwards) {
@@ -119,21 +142,7 @@ int block_sweep(SuperpixelState& s, int b, std::vector<int>& tiles, int tiles_x,
                                      tile_at(tx - 1, ty + 1), tile_at(tx - 1, ty)};
     if (!keeps_connected(ring, label)) continue;
     gather_block(s, u0, v0, u1, v1, scratch, block);
-    const double current = block_score(s, label, block);
-    double best = current;
-    int best_label = label;
-    for (int k = 0; k < 4; ++k) {
-      const int nl = neighbours[k];
-      if (nl < 0 || nl == label) continue;
-      bool seen = false;
-      for (int j = 0; j < k; ++j) seen |= (neighbours[j] == nl);
-      if (seen) continue;
-      const double score = block_score(s, nl, block);
-      if (score > best + 1e-12) {
-        best = score;
-        best_label = nl;
-      }
-    }
+    const int best_label = best_neighbour_label(s, label, neighbours, block);
     if (best_label != label) {
       move_block(s, u0, v0, u1, v1, label, best_label);
       tiles[t] = best_label;
@@ -179,21 +188,7 @@ int pixel_sweep(SuperpixelState& s, bool backwards) {
       const float d = s.disparity[i];
       px.has_disparity = !std::isnan(d);
       px.mean_disparity = px.has_disparity ? d : 0.0;
-      const double current = block_score(s, label, px);
-      double best = current;
-      int best_label = label;
-      for (int k = 0; k < 4; ++k) {
-        const int nl = neighbours[k];
-        if (nl < 0 || nl == label) continue;
-        bool seen = false;
-        for (int j = 0; j < k; ++j) seen |= (neighbours[j] == nl);
-        if (seen) continue;
-        const double score = block_score(s, nl, px);
-        if (score > best + 1e-12) {
-          best = score;
-          best_label = nl;
-        }
-      }
+      const int best_label = best_neighbour_label(s, label, neighbours, px);
       if (best_label != label) {
         move_block(s, u, v, u + 1, v + 1, label, best_label);
         ++moves;

@@ -195,7 +195,8 @@ cv::Mat opencv_sgbm_disparity(const cv::Mat& left, const cv::Mat& right, int max
   sgbm->compute(left, right, fixed_point);
   cv::Mat disparity;
   fixed_point.convertTo(disparity, CV_32F, 1.0 / 16.0);
-  disparity.setTo(std::numeric_limits<float>::quiet_NaN(), fixed_point < 0);
+  // OpenCV marks unmatched pixels < 0; disparity 0 (infinite depth) is invalid here too.
+  disparity.setTo(std::numeric_limits<float>::quiet_NaN(), fixed_point <= 0);
   return disparity;
 }
 

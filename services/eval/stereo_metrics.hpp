@@ -74,7 +74,8 @@ struct StereoMethod {
 std::vector<StereoMethod> default_stereo_methods(const SgmConfig& sgm,
                                                  const ExtractionConfig& extraction = {});
 
-/// OpenCV StereoSGBM with the parameters above (`mode` = cv::StereoSGBM::MODE_*), as float px.
+/// OpenCV StereoSGBM with the parameters above (`mode` = cv::StereoSGBM::MODE_*), as float px
+/// (NaN where OpenCV found no match or disparity 0). The one SGBM baseline of evals and benches.
 cv::Mat opencv_sgbm_disparity(const cv::Mat& left, const cv::Mat& right, int max_disparity,
                               int mode);
 

@@ -11,6 +11,7 @@
 #include <opencv2/imgproc.hpp>
 #include <opencv2/ximgproc.hpp>
 
+#include "services/eval/stereo_metrics.hpp"
 #include "io/image_io.hpp"
 #include "io/planecell_codec.hpp"
 #include "mapping/planecell/extraction.hpp"
@@ -27,18 +28,6 @@ struct BenchFrame {
   std::string source;
 };
 
-cv::Mat sgbm(const cv::Mat& left, const cv::Mat& right) {
-  auto matcher = cv::StereoSGBM::create(0, 128, 5, 600, 2400, 1, 0, 10, 100, 2);
-  cv::Mat raw;
-  matcher->compute(left, right, raw);
-  cv::Mat out(raw.size(), CV_32F);
-  for (int v = 0; v < raw.rows; ++v)
-    for (int u = 0; u < raw.cols; ++u) {
-      const short d = raw.at<short>(v, u);
-      out.at<float>(v, u) = d > 0 ? d / 16.0f : std::numeric_limits<float>::quiet_NaN();
-    }
-  return out;
-}
 
 /// Ground plane, a far wall, a few boxes and sky, with texture noise (no data needed).
 BenchFrame generated_frame() {
@@ -83,7 +72,8 @@ const BenchFrame& frame() {
       k.left = io::read_image(*root / "image_2/000000_10.png");
       const cv::Mat right = io::read_image(*root / "image_3/000000_10.png");
       k.disparity = stereo::compute_disparity(k.left, right, SgmConfig{});
-      k.disparity_sgbm = sgbm(k.left, right);
+      k.disparity_sgbm = planecell::services::eval::opencv_sgbm_disparity(k.left, right, 128,
+                                                                     cv::StereoSGBM::MODE_SGBM);
       return k;
     }
     BenchFrame g = generated_frame();

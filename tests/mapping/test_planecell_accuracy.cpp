@@ -9,6 +9,7 @@
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "services/eval/stereo_metrics.hpp"
 #include "io/planecell_codec.hpp"
 #include "io/stereo_datasets.hpp"
 #include "mapping/planecell/extraction.hpp"
@@ -18,22 +19,6 @@
 namespace planecell::extraction {
 namespace {
 
-/// Raw matcher: OpenCV StereoSGBM (5×5, P1 = 8·3·25, P2 = 32·3·25), invalid → NaN.
-cv::Mat stereo_sgbm(const cv::Mat& left, const cv::Mat& right, int max_disparity) {
-  const int block = 5;
-  auto sgbm =
-      cv::StereoSGBM::create(0, max_disparity, block, 8 * 3 * block * block, 32 * 3 * block * block,
-                             1, 0, 10, 100, 2, cv::StereoSGBM::MODE_SGBM);
-  cv::Mat raw;
-  sgbm->compute(left, right, raw);
-  cv::Mat out(raw.size(), CV_32F);
-  for (int v = 0; v < raw.rows; ++v)
-    for (int u = 0; u < raw.cols; ++u) {
-      const short d = raw.at<short>(v, u);
-      out.at<float>(v, u) = d > 0 ? d / 16.0f : std::numeric_limits<float>::quiet_NaN();
-    }
-  return out;
-}
 
 struct Scores {
   double error_all = 0.0;       ///< % of GT pixels wrong (missing counts as wrong)
@@ -98,8 +83,10 @@ TEST_P(PlanecellAccuracy, DensePlaneDisparityBeatsRawMatchers) {
     const io::StereoSample sample = io::load_stereo_sample(ref);
     for (const bool own_sgm : {true, false}) {
       const char* matcher = own_sgm ? "SGM " : "SGBM";
-      const cv::Mat raw = own_sgm ? project_sgm(sample.left, sample.right, sample.max_disparity)
-                                  : stereo_sgbm(sample.left, sample.right, sample.max_disparity);
+      const cv::Mat raw =
+          own_sgm ? project_sgm(sample.left, sample.right, sample.max_disparity)
+                  : services::eval::opencv_sgbm_disparity(sample.left, sample.right,
+                                                    sample.max_disparity, cv::StereoSGBM::MODE_SGBM);
       const StereoCamera camera = sample.camera.value_or(StereoCamera{});
       const PlanecellFrame frame = extract_planecells(sample.left, raw, camera, config);
       const Scores raw_score = score(raw, sample.gt_disparity, raw, kitti);
