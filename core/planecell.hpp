@@ -31,6 +31,9 @@ struct Planecell {
   std::uint32_t area_px = 0;      ///< pixels in the segment
   std::uint32_t inlier_count = 0; ///< RANSAC inliers
   float inlier_ratio = 0.0f;      ///< inliers / valid disparities
+  /// 1-σ depth uncertainty of the plane at the polygon's centroid, σ_Z = Z²·σ_d / (f_x·B) (m), with
+  /// σ_d = t/√3 the spread of inliers uniform within the RANSAC threshold ±t; 0 = unknown.
+  float depth_sigma_m = 0.0f;
   std::uint32_t surface = kNoSurface;  ///< CRF surface label
 };
 

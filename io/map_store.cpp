@@ -13,7 +13,7 @@ namespace planecell::io {
 namespace {
 
 constexpr const char* kFormat = "planecell-map";
-constexpr const char* kVersion = "1";
+constexpr const char* kVersion = "2";
 
 constexpr const char* kSchema = R"sql(
 CREATE TABLE meta(key TEXT PRIMARY KEY, value TEXT NOT NULL);
@@ -23,7 +23,7 @@ CREATE TABLE cells(id INTEGER PRIMARY KEY, frame_id INTEGER NOT NULL, surface IN
                    has_plane INTEGER NOT NULL, disparity_plane BLOB NOT NULL, plane BLOB NOT NULL,
                    vertices_px BLOB NOT NULL, vertices_m BLOB NOT NULL, mean_rgb BLOB NOT NULL,
                    histogram BLOB NOT NULL, area_px INTEGER NOT NULL, inlier_count INTEGER NOT NULL,
-                   inlier_ratio REAL NOT NULL);
+                   inlier_ratio REAL NOT NULL, depth_sigma_m REAL NOT NULL);
 CREATE INDEX cells_by_surface ON cells(surface);
 CREATE VIRTUAL TABLE cell_bounds USING rtree(id, min_x, max_x, min_y, max_y, min_z, max_z);
 CREATE TABLE surfaces(id INTEGER PRIMARY KEY, data BLOB NOT NULL);
@@ -102,19 +102,11 @@ std::vector<std::uint8_t> encode_surface(const map::Surface& s) {
   w.put(s.observations);
   w.put(static_cast<std::uint32_t>(s.cells.size()));
   for (auto id : s.cells) w.put(id);
-  w.put(static_cast<std::uint32_t>(s.footprint.size()));
-  auto put_ring = [&](const auto& ring) {
-    w.put(static_cast<std::uint32_t>(ring.size()));
-    for (const auto& p : ring) w.put(p.x()), w.put(p.y());
-  };
-  for (const auto& [key, mp] : s.footprint) {
-    w.put(key);
-    w.put(static_cast<std::uint32_t>(mp.size()));
-    for (const auto& poly : mp) {
-      put_ring(poly.outer());
-      w.put(static_cast<std::uint32_t>(poly.inners().size()));
-      for (const auto& ring : poly.inners()) put_ring(ring);
-    }
+  w.put(s.footprint.resolution_m());
+  w.put(static_cast<std::uint32_t>(s.footprint.tiles().size()));
+  for (const auto& tile : s.footprint.tiles()) {
+    w.put(tile.s), w.put(tile.t);
+    for (std::uint32_t row : tile.rows) w.put(row);
   }
   return std::move(w.bytes);
 }
@@ -141,24 +133,18 @@ map::Surface decode_surface(std::uint32_t id, const void* data, std::size_t size
   s.observations = r.get<std::uint32_t>();
   s.cells.resize(r.count(sizeof(std::uint32_t)));
   for (auto& c : s.cells) c = r.get<std::uint32_t>();
-  auto get_ring = [&](auto& ring) {
-    const auto n = r.count(2 * sizeof(double));
-    for (std::uint32_t k = 0; k < n; ++k) {
-      const double x = r.get<double>();
-      const double y = r.get<double>();
-      ring.push_back(map::Point2(x, y));
-    }
-  };
-  const auto tiles = r.count(sizeof(map::TileKey) + sizeof(std::uint32_t));
-  for (std::uint32_t t = 0; t < tiles; ++t) {
-    const auto key = r.get<map::TileKey>();
-    map::MultiPolygon2& mp = s.footprint[key];
-    mp.resize(r.count(2 * sizeof(std::uint32_t)));
-    for (auto& poly : mp) {
-      get_ring(poly.outer());
-      poly.inners().resize(r.count(sizeof(std::uint32_t)));
-      for (auto& ring : poly.inners()) get_ring(ring);
-    }
+  const auto resolution_m = r.get<double>();
+  if (!(resolution_m > 0.0 && resolution_m <= 10.0))
+    throw StorageError(where + ": surface " + std::to_string(id) + " has an invalid footprint resolution");
+  std::vector<map::FootprintTile> tiles(r.count(sizeof(map::FootprintTile)));
+  for (auto& tile : tiles) {
+    tile.s = r.get<std::int32_t>(), tile.t = r.get<std::int32_t>();
+    for (std::uint32_t& row : tile.rows) row = r.get<std::uint32_t>();
+  }
+  try {
+    s.footprint = map::Footprint::from_tiles(resolution_m, std::move(tiles));
+  } catch (const StorageError& e) {
+    throw StorageError(where + ": surface " + std::to_string(id) + ": " + e.what());
   }
   r.expect_end();
   return s;
@@ -338,7 +324,7 @@ void MapStore::commit_frame(std::uint64_t frame_id, const Pose& T_world_cam,
       run(s, failed);
     }
     {
-      Statement cell(db_, "INSERT INTO cells VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)", *this);
+      Statement cell(db_, "INSERT INTO cells VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)", *this);
       Statement bounds(db_, "INSERT INTO cell_bounds VALUES (?, ?, ?, ?, ?, ?, ?)", *this);
       for (std::uint32_t id : report.added_cells) {
         const Planecell* c = map.cell(id);
@@ -353,7 +339,8 @@ void MapStore::commit_frame(std::uint64_t frame_id, const Pose& T_world_cam,
             .bind(5, dp.bytes).bind(6, plane.bytes).bind(7, encode_vectors(c->vertices_px))
             .bind(8, encode_vectors(c->vertices_m)).bind(9, rgb.bytes).bind(10, hist.bytes)
             .bind(11, std::int64_t{c->area_px}).bind(12, std::int64_t{c->inlier_count})
-            .bind(13, static_cast<double>(c->inlier_ratio));
+            .bind(13, static_cast<double>(c->inlier_ratio))
+            .bind(14, static_cast<double>(c->depth_sigma_m));
         run(cell, failed);
         Eigen::Vector3f lo = Eigen::Vector3f::Constant(std::numeric_limits<float>::max()), hi = -lo;
         for (const auto& v : c->vertices_m) lo = lo.cwiseMin(v), hi = hi.cwiseMax(v);
@@ -425,8 +412,8 @@ StoredMap MapStore::load() const {
   }
   {
     Statement cells(db_, "SELECT id, frame_id, surface, has_plane, disparity_plane, plane, vertices_px, "
-                         "vertices_m, mean_rgb, histogram, area_px, inlier_count, inlier_ratio "
-                         "FROM cells ORDER BY id", *this);
+                         "vertices_m, mean_rgb, histogram, area_px, inlier_count, inlier_ratio, "
+                         "depth_sigma_m FROM cells ORDER BY id", *this);
     while (cells.step(rc)) {
       Planecell c;
       c.id = static_cast<std::uint32_t>(cells.integer(0));
@@ -453,6 +440,7 @@ StoredMap MapStore::load() const {
       c.area_px = static_cast<std::uint32_t>(cells.integer(10));
       c.inlier_count = static_cast<std::uint32_t>(cells.integer(11));
       c.inlier_ratio = static_cast<float>(cells.real(12));
+      c.depth_sigma_m = static_cast<float>(cells.real(13));
       out.cells.push_back(std::move(c));
     }
     if (rc != SQLITE_DONE) fail("cannot read cells");

@@ -215,6 +215,7 @@ std::vector<std::uint8_t> encode_planecells(const std::vector<Planecell>& cells,
       w.varint(cell.inlier_count);
       w.u8(static_cast<std::uint8_t>(
           std::clamp(std::round(cell.inlier_ratio * 255.0f), 0.0f, 255.0f)));
+      w.u16(static_cast<std::uint16_t>(std::clamp(std::round(cell.depth_sigma_m * 100.0f), 0.0f, 65535.0f)));
     }
     if (options.include_histogram) {
       std::uint8_t nonzero = 0;
@@ -328,6 +329,7 @@ DecodedPlanecells decode_planecells(std::span<const std::uint8_t> bytes) {
       cell.area_px = static_cast<std::uint32_t>(area);
       cell.inlier_count = static_cast<std::uint32_t>(inliers);
       cell.inlier_ratio = r.u8("inlier ratio") / 255.0f;
+      cell.depth_sigma_m = r.u16("depth sigma") / 100.0f;
     }
     if (out.options.include_histogram) {
       cell.histogram.fill(0.0f);

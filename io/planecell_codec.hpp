@@ -14,7 +14,8 @@
 ///   the Szudzik pairing of the zig-zag coded dx, dy (1 byte when |dx|, |dy| ≤ 5), then
 ///   with a plane: the plane re-parametrised around the vertex centroid (ū, v̄),
 ///   d = a·(u − ū) + b·(v − v̄) + d̄, as a, b (IEEE half) and d̄ (i16, 1/64 px); mean colour
-///   as RGB 5-6-5 (u16); with the statistics flag: area, inlier count (varint), inlier ratio (u8/255);
+///   as RGB 5-6-5 (u16); with the statistics flag: area, inlier count (varint), inlier ratio (u8/255),
+///   depth σ (u16, cm);
 ///   with the histogram flag: the non-zero bins of the 64-bin histogram as (bin u8, value u8/255)
 ///   pairs after their count (u8).
 /// What is lossy: vertices snap to the lattice (extracted cells already lie on it), plane
@@ -30,12 +31,12 @@
 
 namespace planecell::io {
 
-inline constexpr std::uint8_t kPlanecellCodecVersion = 1;
+inline constexpr std::uint8_t kPlanecellCodecVersion = 2;
 
 /// What goes on the wire besides geometry and colour.
 struct PlanecellCodecOptions {
   bool include_histogram = false;   ///< sparse 64-bin colour histogram (for CRF merging)
-  bool include_statistics = false;  ///< area, inlier count and ratio
+  bool include_statistics = false;  ///< area, inlier count and ratio, depth σ
   bool include_planeless_polygons = false;  ///< planeless cells keep their image polygon
 };
 

@@ -9,6 +9,7 @@
 
 #include "core/error.hpp"
 #include "io/kitti_odometry.hpp"
+#include "io/sequence_ground_truth.hpp"
 #include "io/map_store.hpp"
 #include "mapping/map/crf_merger.hpp"
 #include "mapping/map/global_map.hpp"
@@ -88,6 +89,8 @@ ReplayReport run_replay(const ReplayOptions& options, const AppConfig& config) {
   std::unique_ptr<voxel::VoxelMap> voxel_map;
   if (options.voxel) voxel_map = std::make_unique<voxel::VoxelMap>(config.voxel);
 
+  std::optional<eval::MergeEvaluator> merge_evaluator;
+  if (io::has_surface_ground_truth(sequence)) merge_evaluator.emplace();
   LatencyLog latency;
   double plane_fraction_sum = 0.0;
   ProgressBar progress("replay", last > first ? last - first : 0);
@@ -120,6 +123,10 @@ ReplayReport run_replay(const ReplayOptions& options, const AppConfig& config) {
     const auto adjacency = map::label_adjacency(cells.labels);
     const map::MergeReport merge = global_map.integrate(frame_id, pose, world, adjacency);
     latency.add("merge", ms_since(t));
+    if (merge_evaluator) {
+      const auto gt = io::load_sequence_ground_truth(sequence, index, frame.left.cols, frame.left.rows);
+      if (gt && !gt->surface_id.empty()) merge_evaluator->add_frame(cells.labels, gt->surface_id, world, merge);
+    }
 
     if (store) {
       t = Clock::now();
@@ -165,6 +172,7 @@ ReplayReport run_replay(const ReplayOptions& options, const AppConfig& config) {
     report.voxel_mode = config.voxel.ray_casting ? "insertPointCloud (free-space ray casting)"
                                                  : "per-voxel updateNode + integrateNodeColor, no ray casting";
   }
+  if (merge_evaluator) report.merge_metrics = merge_evaluator->finish();
   report.stage_latency = latency.summaries();
   report.wall_s = ms_since(start) / 1000.0;
   return report;
@@ -183,6 +191,13 @@ nlohmann::json to_json(const ReplayReport& r) {
       {"surface_merges", r.surface_merges}, {"map_bytes", r.map_bytes},
       {"store_bytes", r.store_bytes},   {"bytes_per_frame", r.bytes_per_frame},
       {"stage_latency", stages},        {"wall_s", r.wall_s}};
+  if (r.merge_metrics) {
+    const auto& m = *r.merge_metrics;
+    out["merge_vs_ground_truth"] = {
+        {"cells", m.cells}, {"mixed_cells", m.mixed_cells}, {"gt_surfaces", m.gt_surfaces},
+        {"labels", m.labels}, {"area_in_dominant_label", m.area_in_dominant_label},
+        {"area_one_label", m.area_one_label}, {"cross_merged_cells", m.cross_merged_cells}};
+  }
   if (r.voxel) {
     out["voxel"] = {{"mode", r.voxel_mode}, {"voxel_bytes", r.voxel_bytes},
                     {"voxel_ot_bytes", r.voxel_ot_bytes}, {"voxel_bt_bytes", r.voxel_bt_bytes},
@@ -205,6 +220,13 @@ std::string summary_text(const ReplayReport& r) {
       << " kB/frame)";
   if (r.store_bytes > 0) out << ", store " << r.store_bytes / 1024.0 << " kB on disk";
   out << "\n";
+  if (r.merge_metrics) {
+    const auto& m = *r.merge_metrics;
+    out << "  merging vs GT surfaces: " << 100.0 * m.area_one_label << " % of GT area in one label each ("
+        << 100.0 * m.area_in_dominant_label << " % in its dominant label), " << 100.0 * m.cross_merged_cells
+        << " % of cells merged across GT surfaces (" << m.gt_surfaces << " GT surfaces -> " << m.labels
+        << " labels, " << m.cells << " cells, " << m.mixed_cells << " mixed cells left out)\n";
+  }
   if (r.voxel)
     out << "  voxel baseline (" << r.voxel_mode << "): " << r.voxel_leaves << " voxels, "
         << r.voxel_bytes / 1024.0 << " kB in RAM, .ot " << r.voxel_ot_bytes / 1024.0 << " kB, .bt "

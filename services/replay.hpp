@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "core/config/app_config.hpp"
+#include "services/eval/merge_metrics.hpp"
 #include "services/latency_stats.hpp"
 
 namespace planecell::services {
@@ -47,6 +48,8 @@ struct ReplayReport {
   std::size_t voxel_bt_bytes = 0;  ///< .bt (occupancy only)
   std::size_t voxel_leaves = 0;    ///< occupied voxels
   std::string voxel_mode;          ///< "per-voxel update, no ray casting" or "insertPointCloud"
+  /// Merging against the synthetic GT surface ids (sequences with surface_0/), this run's frames.
+  std::optional<eval::MergeMetrics> merge_metrics;
   std::vector<std::pair<std::string, LatencySummary>> stage_latency;  ///< per stage, ms
   double wall_s = 0.0;
 };

@@ -13,11 +13,15 @@ struct MapConfig {
   double max_plane_distance_m = 0.08;  ///< max RMS distance of a cell's vertices to the other plane
   double min_colour_similarity = 0.3;  ///< min histogram intersection δ ∈ [0, 1]
   double residual_scale_m = 0.05;      ///< σ: θ' residuals are measured in units of σ (m)
+  /// Stereo depth noise widens the range per cell: a cell with depth uncertainty σ_Z
+  /// (Planecell::depth_sigma_m) may lie max(max_plane_distance_m, k·σ_Z) off the other plane, and
+  /// its normal may differ by max_normal_angle_deg + atan(k·σ_Z / √area) (capped at 2× the angle).
+  double depth_sigma_factor = 1.0;     ///< k (0 = fixed range, as in the paper)
   double neighbour_gap_m = 0.30;       ///< 3D neighbours: polygons closer than this (m)
   // --- fusion and index -----------------------------------------------------------------------
   double fuse_new_area_fraction = 0.25;  ///< a re-observed cell adding < this share of its own
                                          ///< area to its surface is fused, not stored
-  double footprint_simplify_m = 0.02;    ///< Douglas–Peucker tolerance of surface footprints (m)
+  double footprint_resolution_m = 0.10;  ///< edge of a surface footprint bit (m; see map/footprint)
   double index_cell_m = 2.0;             ///< edge of the hashed 3D grid of cell bounds (m)
   // --- queries --------------------------------------------------------------------------------
   double up_x = 0.0;  ///< world "up" (KITTI camera-style world: y down, so up = (0, −1, 0))
@@ -33,9 +37,10 @@ void visit_fields(MapConfig& c, Visitor&& visit) {
   visit("max_plane_distance_m", c.max_plane_distance_m);
   visit("min_colour_similarity", c.min_colour_similarity);
   visit("residual_scale_m", c.residual_scale_m);
+  visit("depth_sigma_factor", c.depth_sigma_factor);
   visit("neighbour_gap_m", c.neighbour_gap_m);
   visit("fuse_new_area_fraction", c.fuse_new_area_fraction);
-  visit("footprint_simplify_m", c.footprint_simplify_m);
+  visit("footprint_resolution_m", c.footprint_resolution_m);
   visit("index_cell_m", c.index_cell_m);
   visit("up_x", c.up_x);
   visit("up_y", c.up_y);

@@ -170,12 +170,23 @@ EdgeEvaluation CrfMerger::evaluate(const MergeUnit& a, const LabelState& label_a
   const auto& vb = b.cell->vertices_m;
   const double cos_angle = std::min(1.0, std::abs(label_a.plane.normal.dot(label_b.plane.normal)));
   ev.angle_deg = std::acos(cos_angle) * 180.0 / std::numbers::pi;
-  ev.distance_m = std::max(rms_distance_m(label_b.plane, va), rms_distance_m(label_a.plane, vb));
+  const double dist_a = rms_distance_m(label_b.plane, va), dist_b = rms_distance_m(label_a.plane, vb);
+  ev.distance_m = std::max(dist_a, dist_b);
   const double delta_a = colour_similarity(a.cell->histogram, label_b.histogram);
   const double delta_b = colour_similarity(b.cell->histogram, label_a.histogram);
   ev.colour_similarity = std::min(delta_a, delta_b);
-  ev.in_range = ev.angle_deg <= config_.max_normal_angle_deg &&
-                ev.distance_m <= config_.max_plane_distance_m &&
+  // Variation range widened by each cell's own depth noise (MapConfig::depth_sigma_factor).
+  const double k = config_.depth_sigma_factor;
+  auto distance_tolerance = [&](const MergeUnit& u) {
+    return std::max(config_.max_plane_distance_m, k * u.cell->depth_sigma_m);
+  };
+  auto angle_tolerance = [&](const MergeUnit& u) {
+    const double extent_m = std::sqrt(std::max(u.area_m2, 1e-6));
+    const double widen = std::atan(k * u.cell->depth_sigma_m / extent_m) * 180.0 / std::numbers::pi;
+    return config_.max_normal_angle_deg + std::min(widen, config_.max_normal_angle_deg);
+  };
+  ev.in_range = ev.angle_deg <= std::max(angle_tolerance(a), angle_tolerance(b)) &&
+                dist_a <= distance_tolerance(a) && dist_b <= distance_tolerance(b) &&
                 ev.colour_similarity >= config_.min_colour_similarity;
   const double sigma = config_.residual_scale_m;
   const double phi = pose_potential(a.area_m2, b.area_m2, plane_residual(a.cell->plane, vb, sigma),

@@ -61,13 +61,13 @@ double point_segment_distance(const Eigen::Vector3d& p, const Eigen::Vector3d& a
   return (a + t * ab - p).norm();
 }
 
-double distance_to_polygon(const Eigen::Vector3d& point, const Plane3& plane,
-                           std::span<const Eigen::Vector3f> vertices) {
-  if (vertices.size() < 3) return std::numeric_limits<double>::infinity();
-  const PlaneBasis basis = make_basis(plane, point);
-  const Polygon2 poly = to_polygon2(vertices, basis);
-  // basis.origin is the projection of `point`, i.e. (0, 0) in the basis.
-  if (bg::covered_by(Point2(0.0, 0.0), poly)) return std::abs(plane.signed_distance(point));
+namespace {
+
+/// Distance from `point` to a polygon whose 2D outline in `basis` (a basis of its plane) is `poly`.
+double distance_to_outline(const Eigen::Vector3d& point, const Plane3& plane, const PlaneBasis& basis,
+                           const Polygon2& poly, std::span<const Eigen::Vector3f> vertices) {
+  const Eigen::Vector2d st = basis.to_2d(point);
+  if (bg::covered_by(Point2(st.x(), st.y()), poly)) return std::abs(plane.signed_distance(point));
   double best = std::numeric_limits<double>::infinity();
   for (std::size_t k = 0; k < vertices.size(); ++k)
     best = std::min(best, point_segment_distance(point, vertices[k].cast<double>(),
@@ -75,11 +75,25 @@ double distance_to_polygon(const Eigen::Vector3d& point, const Plane3& plane,
   return best;
 }
 
+}  // namespace
+
+double distance_to_polygon(const Eigen::Vector3d& point, const Plane3& plane,
+                           std::span<const Eigen::Vector3f> vertices) {
+  if (vertices.size() < 3) return std::numeric_limits<double>::infinity();
+  const PlaneBasis basis = make_basis(plane, point);
+  return distance_to_outline(point, plane, basis, to_polygon2(vertices, basis), vertices);
+}
+
 double polygon_gap_m(const Plane3& plane_a, std::span<const Eigen::Vector3f> a,
                      const Plane3& plane_b, std::span<const Eigen::Vector3f> b) {
+  if (a.size() < 3 || b.size() < 3) return std::numeric_limits<double>::infinity();
+  // One basis and outline per polygon (not per vertex): the inside test is basis-independent.
+  const PlaneBasis basis_a = make_basis(plane_a, a[0].cast<double>());
+  const PlaneBasis basis_b = make_basis(plane_b, b[0].cast<double>());
+  const Polygon2 poly_a = to_polygon2(a, basis_a), poly_b = to_polygon2(b, basis_b);
   double best = std::numeric_limits<double>::infinity();
-  for (const auto& v : a) best = std::min(best, distance_to_polygon(v.cast<double>(), plane_b, b));
-  for (const auto& v : b) best = std::min(best, distance_to_polygon(v.cast<double>(), plane_a, a));
+  for (const auto& v : a) best = std::min(best, distance_to_outline(v.cast<double>(), plane_b, basis_b, poly_b, b));
+  for (const auto& v : b) best = std::min(best, distance_to_outline(v.cast<double>(), plane_a, basis_a, poly_a, a));
   return best;
 }
 

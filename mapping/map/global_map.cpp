@@ -8,29 +8,7 @@
 #include "core/error.hpp"
 
 namespace planecell::map {
-namespace bg = boost::geometry;
 namespace {
-
-using Box2 = bg::model::box<Point2>;
-
-TileKey tile_key(std::int64_t s_index, std::int64_t t_index) {
-  return static_cast<TileKey>((static_cast<std::uint64_t>(s_index) << 32) |
-                              (static_cast<std::uint64_t>(t_index) & 0xFFFFFFFFull));
-}
-
-Box2 tile_box(std::int64_t s_index, std::int64_t t_index) {
-  return {Point2(s_index * kFootprintTileM, t_index * kFootprintTileM),
-          Point2((s_index + 1) * kFootprintTileM, (t_index + 1) * kFootprintTileM)};
-}
-
-/// A valid polygon: the polygon itself, or its convex hull when self-intersecting.
-Polygon2 valid_polygon(const Polygon2& poly) {
-  if (bg::is_valid(poly)) return poly;
-  Polygon2 hull;
-  bg::convex_hull(poly, hull);
-  bg::correct(hull);
-  return hull;
-}
 
 bool cell_is_usable(const Planecell& cell) {
   if (!cell.has_plane || cell.vertices_m.size() < 3) return false;
@@ -66,32 +44,6 @@ std::size_t hash_map_bytes(const Map& m) {
          m.size() * (sizeof(typename Map::value_type) + sizeof(void*));
 }
 
-std::size_t multipolygon_bytes(const MultiPolygon2& mp) {
-  std::size_t total = mp.capacity() * sizeof(Polygon2);
-  for (const auto& poly : mp) {
-    total += poly.outer().capacity() * sizeof(Point2) + poly.inners().capacity() * sizeof(poly.outer());
-    for (const auto& ring : poly.inners()) total += ring.capacity() * sizeof(Point2);
-  }
-  return total;
-}
-
-bool rings_equal(const MultiPolygon2& a, const MultiPolygon2& b) {
-  if (a.size() != b.size()) return false;
-  auto ring_eq = [](const auto& r1, const auto& r2) {
-    if (r1.size() != r2.size()) return false;
-    for (std::size_t k = 0; k < r1.size(); ++k)
-      if (r1[k].x() != r2[k].x() || r1[k].y() != r2[k].y()) return false;
-    return true;
-  };
-  for (std::size_t p = 0; p < a.size(); ++p) {
-    if (!ring_eq(a[p].outer(), b[p].outer()) || a[p].inners().size() != b[p].inners().size())
-      return false;
-    for (std::size_t r = 0; r < a[p].inners().size(); ++r)
-      if (!ring_eq(a[p].inners()[r], b[p].inners()[r])) return false;
-  }
-  return true;
-}
-
 bool cells_equal(const Planecell& a, const Planecell& b) {
   return a.id == b.id && a.frame_id == b.frame_id && a.has_plane == b.has_plane &&
          a.disparity_plane.a == b.disparity_plane.a && a.disparity_plane.b == b.disparity_plane.b &&
@@ -99,7 +51,8 @@ bool cells_equal(const Planecell& a, const Planecell& b) {
          a.plane.offset == b.plane.offset && a.vertices_px == b.vertices_px &&
          a.vertices_m == b.vertices_m && a.mean_rgb == b.mean_rgb && a.histogram == b.histogram &&
          a.area_px == b.area_px && a.inlier_count == b.inlier_count &&
-         a.inlier_ratio == b.inlier_ratio && a.surface == b.surface;
+         a.inlier_ratio == b.inlier_ratio && a.depth_sigma_m == b.depth_sigma_m &&
+         a.surface == b.surface;
 }
 
 bool surfaces_equal(const Surface& a, const Surface& b) {
@@ -108,65 +61,12 @@ bool surfaces_equal(const Surface& a, const Surface& b) {
         a.histogram_weight_m2 == b.histogram_weight_m2 && a.mean_rgb == b.mean_rgb &&
         a.observed_area_m2 == b.observed_area_m2 && a.area_m2 == b.area_m2 &&
         a.bounds == b.bounds && a.basis == b.basis && a.cells == b.cells &&
-        a.observations == b.observations && a.footprint.size() == b.footprint.size()))
+        a.observations == b.observations && a.footprint == b.footprint))
     return false;
-  for (auto ia = a.footprint.begin(), ib = b.footprint.begin(); ia != a.footprint.end(); ++ia, ++ib)
-    if (ia->first != ib->first || !rings_equal(ia->second, ib->second)) return false;
   return true;
 }
 
 }  // namespace
-
-double add_to_footprint(std::map<TileKey, MultiPolygon2>& footprint, const Polygon2& poly_in,
-                        double simplify_m) {
-  const Polygon2 poly = valid_polygon(poly_in);
-  Box2 env;
-  bg::envelope(poly, env);
-  const auto s0 = static_cast<std::int64_t>(std::floor(env.min_corner().x() / kFootprintTileM));
-  const auto s1 = static_cast<std::int64_t>(std::floor(env.max_corner().x() / kFootprintTileM));
-  const auto t0 = static_cast<std::int64_t>(std::floor(env.min_corner().y() / kFootprintTileM));
-  const auto t1 = static_cast<std::int64_t>(std::floor(env.max_corner().y() / kFootprintTileM));
-  double added = 0.0;
-  for (auto s = s0; s <= s1; ++s)
-    for (auto t = t0; t <= t1; ++t) {
-      MultiPolygon2 piece;
-      bg::intersection(poly, tile_box(s, t), piece);
-      if (piece.empty()) continue;
-      MultiPolygon2& tile = footprint[tile_key(s, t)];
-      const double before = bg::area(tile);
-      MultiPolygon2 united;
-      bg::union_(tile, piece, united);
-      if (simplify_m > 0.0) {
-        MultiPolygon2 simple;
-        bg::simplify(united, simple, simplify_m);
-        if (bg::is_valid(simple)) united = std::move(simple);
-      }
-      tile = std::move(united);
-      if (tile.empty()) {
-        footprint.erase(tile_key(s, t));
-        continue;
-      }
-      added += bg::area(tile) - before;
-    }
-  return added;
-}
-
-double footprint_area_m2(const std::map<TileKey, MultiPolygon2>& footprint) {
-  double area = 0.0;
-  for (const auto& [key, mp] : footprint) area += bg::area(mp);
-  return area;
-}
-
-bool footprint_contains(const std::map<TileKey, MultiPolygon2>& footprint, double s, double t) {
-  const auto si = static_cast<std::int64_t>(std::floor(s / kFootprintTileM));
-  const auto ti = static_cast<std::int64_t>(std::floor(t / kFootprintTileM));
-  for (std::int64_t ds = -1; ds <= 0; ++ds)  // a point on a tile's low edge also lies in the neighbour
-    for (std::int64_t dt = -1; dt <= 0; ++dt) {
-      auto it = footprint.find(tile_key(si + ds, ti + dt));
-      if (it != footprint.end() && bg::covered_by(Point2(s, t), it->second)) return true;
-    }
-  return false;
-}
 
 GlobalMap::GlobalMap(const MapConfig& config)
     : config_(config),
@@ -178,6 +78,7 @@ GlobalMap::GlobalMap(const MapConfig& config)
   up_.normalize();
   if (!(config.max_range_m > 0.0))
     throw ConfigError("map.max_range_m: must be > 0, got " + std::to_string(config.max_range_m));
+  (void)Footprint(config.footprint_resolution_m);  // validates the resolution (ConfigError)
   if (!(config.neighbour_gap_m >= 0.0))
     throw ConfigError("map.neighbour_gap_m: must be >= 0, got " + std::to_string(config.neighbour_gap_m));
 }
@@ -190,22 +91,17 @@ void GlobalMap::absorb_surface(Surface& into, Surface& absorbed, MergeReport& re
     into.cells.push_back(id);
     report.relabelled_cells.push_back(id);
   }
-  for (const auto& [key, mp] : absorbed.footprint)
-    for (const auto& poly : mp) {
-      Polygon2 moved;
-      for (const auto& p : poly.outer()) {
-        const Eigen::Vector2d st = into.basis.to_2d(absorbed.basis.to_3d({p.x(), p.y()}));
-        bg::append(moved.outer(), Point2(st.x(), st.y()));
-      }
-      bg::correct(moved);
-      add_to_footprint(into.footprint, moved, config_.footprint_simplify_m);
-    }
+  // Footprint bits move to into's basis through 3D (bit centres; ≤ one bit of blur).
+  for (const Eigen::Vector2d& st : absorbed.footprint.covered_centres()) {
+    const Eigen::Vector2d moved = into.basis.to_2d(absorbed.basis.to_3d(st));
+    into.footprint.add_point(moved.x(), moved.y());
+  }
   const double w = into.observed_area_m2 + absorbed.observed_area_m2;
   if (w > 0.0)
     into.mean_rgb = ((into.mean_rgb * into.observed_area_m2 + absorbed.mean_rgb * absorbed.observed_area_m2) / w)
                         .cast<float>();
   into.observed_area_m2 = w;
-  into.area_m2 = footprint_area_m2(into.footprint);
+  into.area_m2 = into.footprint.area_m2();
   into.bounds.extend(absorbed.bounds);
   into.observations += absorbed.observations;
 }
@@ -222,9 +118,12 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
   // 1. Usable new cells within range; fresh labels next_surface_id_ + k.
   const Eigen::Vector3d camera_centre = T_world_cam.translation();
   std::vector<const Planecell*> fresh;
+  std::vector<std::size_t> fresh_input;  ///< index of fresh[k] in cells_world
   std::vector<double> fresh_area;
+  report.cell_surfaces.assign(cells_world.size(), kNoSurface);
   std::unordered_map<std::uint32_t, std::uint32_t> unit_of_extraction_id;
-  for (const auto& cell : cells_world) {
+  for (std::size_t i = 0; i < cells_world.size(); ++i) {
+    const Planecell& cell = cells_world[i];
     if (!cell_is_usable(cell) ||
         (vertex_centroid(cell.vertices_m) - camera_centre).norm() > config_.max_range_m) {
       ++report.rejected_cells;
@@ -232,6 +131,7 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
     }
     unit_of_extraction_id[cell.id] = static_cast<std::uint32_t>(fresh.size());
     fresh.push_back(&cell);
+    fresh_input.push_back(i);
     fresh_area.push_back(polygon_area_m2(cell.vertices_m));
   }
   if (fresh.size() > 0xFFFFFFFFull - next_surface_id_)
@@ -318,12 +218,13 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
     if (created) {
       surface.id = root;
       surface.basis = make_basis(labels.at(root).plane, vertex_centroid(cell.vertices_m));
+      surface.footprint = Footprint(config_.footprint_resolution_m);
     }
     touched.insert(root);
+    report.cell_surfaces[fresh_input[k]] = root;
     const double area = fresh_area[k];
     const bool had_footprint = !surface.footprint.empty();
-    const double added = add_to_footprint(surface.footprint, to_polygon2(cell.vertices_m, surface.basis),
-                                          config_.footprint_simplify_m);
+    const double added = surface.footprint.add_polygon(to_polygon2(cell.vertices_m, surface.basis));
     const double w = surface.observed_area_m2 + area;
     surface.mean_rgb = ((surface.mean_rgb * surface.observed_area_m2 + cell.mean_rgb * area) / w).cast<float>();
     surface.observed_area_m2 = w;
@@ -370,9 +271,7 @@ std::size_t GlobalMap::map_bytes() const {
              cell.vertices_m.capacity() * sizeof(Eigen::Vector3f);
   for (const auto& [id, surface] : surfaces_) {
     total += surface.cells.capacity() * sizeof(std::uint32_t);
-    // std::map node: three links + colour, then the value.
-    total += surface.footprint.size() * (4 * sizeof(void*) + sizeof(std::pair<const TileKey, MultiPolygon2>));
-    for (const auto& [key, mp] : surface.footprint) total += multipolygon_bytes(mp);
+    total += surface.footprint.bytes();
   }
   return total;
 }

@@ -3,7 +3,6 @@
 /// (paper §5.2), with a spatial index, footprint fusion (map size grows with area, not frames),
 /// planner queries and memory accounting.
 #include <cstdint>
-#include <map>
 #include <opencv2/core/mat.hpp>
 #include <optional>
 #include <span>
@@ -14,17 +13,11 @@
 #include "core/planecell.hpp"
 #include "core/pose.hpp"
 #include "mapping/map/crf_merger.hpp"
+#include "mapping/map/footprint.hpp"
 #include "mapping/map/geometry.hpp"
 #include "mapping/map/spatial_index.hpp"
 
 namespace planecell::map {
-
-/// Edge of a footprint tile on a surface's plane (m): footprints are stored clipped to square
-/// tiles of the plane basis so that fusing a cell touches a bounded amount of polygon.
-inline constexpr double kFootprintTileM = 8.0;
-
-/// Key of a footprint tile: (floor(s / tile), floor(t / tile)) packed as (s_index << 32 | t_index).
-using TileKey = std::int64_t;
 
 /// A surface: coplanar cells sharing one CRF label.
 struct Surface {
@@ -38,7 +31,7 @@ struct Surface {
   double area_m2 = 0.0;           ///< area of the footprint (union of all integrated cells)
   Aabb bounds;                    ///< bounds of every integrated cell's vertices
   PlaneBasis basis;               ///< 2D frame of the footprint (fixed at creation)
-  std::map<TileKey, MultiPolygon2> footprint;  ///< union of the cells in `basis`, per tile
+  Footprint footprint;                         ///< cells' union in `basis` (occupancy bits)
   std::vector<std::uint32_t> cells;            ///< stored member cells (map cell ids)
   std::uint32_t observations = 0;              ///< integrated cells, fused ones included
 };
@@ -64,6 +57,10 @@ struct MergeReport {
   std::vector<std::uint32_t> updated_surfaces;  ///< surfaces created or changed (alive, sorted)
   std::vector<std::uint32_t> removed_surfaces;  ///< surfaces absorbed by merges
   std::vector<SurfaceMerge> surface_merges;     ///< in merge order
+  /// Per input cell (same order as the cells handed in): the surface it was integrated into at
+  /// the end of this frame (stored or fused), kNoSurface when rejected. Later surface merges
+  /// move it on; follow `surface_merges` of later frames.
+  std::vector<std::uint32_t> cell_surfaces;
   double merge_ms = 0.0;                        ///< wall time of integrate()
 };
 
@@ -167,16 +164,5 @@ class GlobalMap {
   std::uint32_t next_cell_id_ = 0;
   std::uint32_t next_surface_id_ = 0;
 };
-
-/// Adds polygon `poly` (in the footprint's basis) to a tiled footprint: clipped to each tile it
-/// covers and united with that tile's polygons (Boost.Geometry). Returns the area added (m²).
-double add_to_footprint(std::map<TileKey, MultiPolygon2>& footprint, const Polygon2& poly,
-                        double simplify_m);
-
-/// Area of a tiled footprint (m²).
-double footprint_area_m2(const std::map<TileKey, MultiPolygon2>& footprint);
-
-/// True when (s, t) lies in the footprint (boundary included).
-bool footprint_contains(const std::map<TileKey, MultiPolygon2>& footprint, double s, double t);
 
 }  // namespace planecell::map

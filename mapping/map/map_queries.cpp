@@ -58,7 +58,7 @@ std::optional<GroundHit> GlobalMap::ground_under(const Eigen::Vector3d& point,
     if (h < 0.0 || h > max_drop_m) continue;
     const Eigen::Vector3d ground = point - h * up_;
     const Eigen::Vector2d st = s.basis.to_2d(ground);
-    if (!footprint_contains(s.footprint, st.x(), st.y())) continue;
+    if (!s.footprint.contains(st.x(), st.y())) continue;
     if (!best || h < best->height_above_m) best = GroundHit{sid, h, ground};
   }
   return best;

@@ -133,6 +133,13 @@ PlanecellFrame extract_planecells(const cv::Mat& left, const cv::Mat& disparity,
     }
     cell.vertices_px = polygons[k];
     convert_to_3d(cell, camera);
+    if (cell.has_plane && !cell.vertices_m.empty()) {
+      double z = 0.0;
+      for (const auto& v : cell.vertices_m) z += v.z();
+      z /= static_cast<double>(cell.vertices_m.size());
+      const double sigma_d_px = config.inlier_threshold_px / std::sqrt(3.0);
+      cell.depth_sigma_m = static_cast<float>(z * z * sigma_d_px / (camera.fx * camera.baseline_m));
+    }
     with_plane += cell.has_plane;
   }
   frame.plane_fraction = n > 0 ? static_cast<double>(with_plane) / n : 0.0;

@@ -32,6 +32,7 @@ Planecell rect_cell(std::uint32_t id, const Eigen::Vector3f& corner, const Eigen
   c.area_px = 400 + id;
   c.inlier_count = 350 + id;
   c.inlier_ratio = 0.875f;
+  c.depth_sigma_m = 0.0625f + 0.001f * static_cast<float>(id);
   c.vertices_px = {{0, 0}, {20.5f, 0}, {20, 20}, {0, 20.25f}};
   return c;
 }

@@ -32,6 +32,7 @@ std::vector<Planecell> make_cells(int n) {
     c.area_px = 600 + k;
     c.inlier_count = 500;
     c.inlier_ratio = 0.8f;
+    c.depth_sigma_m = 0.05f + 0.37f * static_cast<float>(k % 100);
     c.histogram.fill(0.0f);
     c.histogram[k % 64] = 0.75f;
     c.histogram[(k + 9) % 64] = 0.25f;
@@ -91,6 +92,7 @@ TEST_P(PlanecellCodec, RoundTripKeepsGeometryWithinQuantisation) {
       EXPECT_EQ(b.area_px, a.area_px);
       EXPECT_EQ(b.inlier_count, a.inlier_count);
       EXPECT_NEAR(b.inlier_ratio, a.inlier_ratio, 1.0 / 255);
+      EXPECT_NEAR(b.depth_sigma_m, a.depth_sigma_m, 0.005 + 1e-6);  // centimetre quantum
     }
     if (GetParam().include_histogram) {
       for (int bin = 0; bin < kColourHistogramBins; ++bin)

@@ -175,6 +175,13 @@ TEST_P(PlanecellExtraction, FittedPlanesRecoverTheSceneGeometry) {
         << "cell " << k;
     EXPECT_GT(cell.inlier_ratio, 0.8f);
     EXPECT_LE(cell.inlier_count, cell.area_px);
+    // σ_Z = Z̄²·(t/√3)/(f·B) at the mean vertex depth Z̄.
+    double z = 0.0;
+    for (const auto& v : cell.vertices_m) z += v.z();
+    z /= static_cast<double>(cell.vertices_m.size());
+    const double sigma =
+        z * z * (config_.inlier_threshold_px / std::sqrt(3.0)) / (scene_.camera.fx * scene_.camera.baseline_m);
+    EXPECT_NEAR(cell.depth_sigma_m, sigma, 1e-4 * sigma + 1e-7) << "cell " << k;
   }
   EXPECT_GT(checked, 80);
 }

@@ -41,6 +41,12 @@ TEST_F(ReplayTest, MapsEveryFrameAndStoresThem) {
   EXPECT_LT(report.surfaces, report.cells_in_map);  // coplanar cells share surfaces
   EXPECT_GT(report.map_bytes, 0u);
   EXPECT_GT(report.store_bytes, 0u);
+  // The synthetic sequence has GT surface ids: merging is scored against them.
+  ASSERT_TRUE(report.merge_metrics.has_value());
+  EXPECT_GT(report.merge_metrics->cells, 0u);
+  EXPECT_GT(report.merge_metrics->area_in_dominant_label, 0.0);
+  EXPECT_LE(report.merge_metrics->area_in_dominant_label, 1.0);
+  EXPECT_LE(report.merge_metrics->area_one_label, report.merge_metrics->area_in_dominant_label);
   ASSERT_EQ(report.stage_latency.size(), 6u);  // load, sgm, extract, transform, merge, store
   const io::MapStore store(scratch_ / "map.db");
   EXPECT_EQ(store.frame_count(), 4u);

@@ -1,0 +1,146 @@
+#include "mapping/map/footprint.hpp"
+
+#include <algorithm>
+#include <bit>
+#include <cmath>
+#include <limits>
+#include <opencv2/imgproc.hpp>
+
+#include "core/error.hpp"
+
+namespace planecell::map {
+namespace {
+
+constexpr int kShift = 8;  // fillPoly fixed-point bits
+constexpr int N = FootprintTile::kSize;
+
+std::int64_t floor_div(std::int64_t a, std::int64_t b) { return a >= 0 ? a / b : -((-a + b - 1) / b); }
+
+bool tile_less(const FootprintTile& tile, std::pair<std::int32_t, std::int32_t> key) {
+  return std::pair(tile.s, tile.t) < key;
+}
+
+}  // namespace
+
+Footprint::Footprint(double resolution_m) : resolution_m_(resolution_m) {
+  if (!(resolution_m > 0.0 && resolution_m <= 10.0))
+    throw ConfigError("footprint resolution must be in (0, 10] m, got " + std::to_string(resolution_m));
+}
+
+FootprintTile& Footprint::tile_at(std::int32_t s, std::int32_t t) {
+  auto it = std::lower_bound(tiles_.begin(), tiles_.end(), std::pair(s, t), tile_less);
+  if (it != tiles_.end() && it->s == s && it->t == t) return *it;
+  FootprintTile fresh;
+  fresh.s = s;
+  fresh.t = t;
+  return *tiles_.insert(it, fresh);
+}
+
+const FootprintTile* Footprint::find_tile(std::int32_t s, std::int32_t t) const {
+  auto it = std::lower_bound(tiles_.begin(), tiles_.end(), std::pair(s, t), tile_less);
+  return it != tiles_.end() && it->s == s && it->t == t ? &*it : nullptr;
+}
+
+double Footprint::add_polygon(const Polygon2& polygon) {
+  const auto& ring = polygon.outer();
+  if (ring.size() < 3) return 0.0;
+  double lo_s = std::numeric_limits<double>::infinity(), lo_t = lo_s, hi_s = -lo_s, hi_t = -lo_s;
+  for (const auto& p : ring) {
+    if (!std::isfinite(p.x()) || !std::isfinite(p.y())) return 0.0;
+    lo_s = std::min(lo_s, p.x()), hi_s = std::max(hi_s, p.x());
+    lo_t = std::min(lo_t, p.y()), hi_t = std::max(hi_t, p.y());
+  }
+  const double inv = 1.0 / resolution_m_;
+  // Grid bits i cover [i·res, (i+1)·res); their centres (i + 0.5)·res must lie in the polygon's
+  // bounding box: i ∈ [⌈lo/res − 0.5⌉, ⌊hi/res − 0.5⌋] (fillPoly itself also takes edge pixels).
+  const auto i0 = static_cast<std::int64_t>(std::ceil(lo_s * inv - 0.5));
+  const auto j0 = static_cast<std::int64_t>(std::ceil(lo_t * inv - 0.5));
+  const auto i1 = static_cast<std::int64_t>(std::floor(hi_s * inv - 0.5));
+  const auto j1 = static_cast<std::int64_t>(std::floor(hi_t * inv - 0.5));
+  const std::int64_t cols = i1 - i0 + 1, rows = j1 - j0 + 1;
+  if (cols <= 0 || rows <= 0 || cols * rows > 4'000'000) return 0.0;  // degenerate or absurd
+  cv::Mat mask = cv::Mat::zeros(static_cast<int>(rows), static_cast<int>(cols), CV_8U);
+  std::vector<cv::Point> points;
+  points.reserve(ring.size());
+  const double scale = static_cast<double>(1 << kShift);
+  for (const auto& p : ring)
+    points.emplace_back(static_cast<int>(std::lround((p.x() * inv - 0.5 - static_cast<double>(i0)) * scale)),
+                        static_cast<int>(std::lround((p.y() * inv - 0.5 - static_cast<double>(j0)) * scale)));
+  cv::fillPoly(mask, std::vector<std::vector<cv::Point>>{points}, cv::Scalar(1), cv::LINE_8, kShift);
+  std::size_t added = 0;
+  for (std::int64_t r = 0; r < rows; ++r) {
+    const auto* m = mask.ptr<std::uint8_t>(static_cast<int>(r));
+    const std::int64_t j = j0 + r;
+    const auto tj = static_cast<std::int32_t>(floor_div(j, N));
+    const auto bj = static_cast<int>(j - static_cast<std::int64_t>(tj) * N);
+    for (std::int64_t c = 0; c < cols;) {
+      if (!m[c]) {
+        ++c;
+        continue;
+      }
+      const std::int64_t i = i0 + c;
+      const auto ti = static_cast<std::int32_t>(floor_div(i, N));
+      std::uint32_t& row = tile_at(ti, tj).rows[bj];
+      // Fill the run of this tile row.
+      for (; c < cols && floor_div(i0 + c, N) == ti; ++c) {
+        if (!m[c]) continue;
+        const std::uint32_t bit = 1u << static_cast<int>(i0 + c - static_cast<std::int64_t>(ti) * N);
+        added += (row & bit) == 0;
+        row |= bit;
+      }
+    }
+  }
+  return static_cast<double>(added) * resolution_m_ * resolution_m_;
+}
+
+bool Footprint::add_point(double s, double t) {
+  if (!std::isfinite(s) || !std::isfinite(t)) return false;
+  const auto i = static_cast<std::int64_t>(std::floor(s / resolution_m_));
+  const auto j = static_cast<std::int64_t>(std::floor(t / resolution_m_));
+  const auto ti = static_cast<std::int32_t>(floor_div(i, N)), tj = static_cast<std::int32_t>(floor_div(j, N));
+  std::uint32_t& row = tile_at(ti, tj).rows[j - static_cast<std::int64_t>(tj) * N];
+  const std::uint32_t bit = 1u << static_cast<int>(i - static_cast<std::int64_t>(ti) * N);
+  const bool was_clear = (row & bit) == 0;
+  row |= bit;
+  return was_clear;
+}
+
+double Footprint::area_m2() const {
+  std::size_t bits = 0;
+  for (const auto& tile : tiles_)
+    for (std::uint32_t row : tile.rows) bits += static_cast<std::size_t>(std::popcount(row));
+  return static_cast<double>(bits) * resolution_m_ * resolution_m_;
+}
+
+bool Footprint::contains(double s, double t) const {
+  if (!std::isfinite(s) || !std::isfinite(t)) return false;
+  const auto i = static_cast<std::int64_t>(std::floor(s / resolution_m_));
+  const auto j = static_cast<std::int64_t>(std::floor(t / resolution_m_));
+  const auto ti = static_cast<std::int32_t>(floor_div(i, N)), tj = static_cast<std::int32_t>(floor_div(j, N));
+  const FootprintTile* tile = find_tile(ti, tj);
+  if (!tile) return false;
+  return (tile->rows[j - static_cast<std::int64_t>(tj) * N] >> (i - static_cast<std::int64_t>(ti) * N)) & 1u;
+}
+
+std::vector<Eigen::Vector2d> Footprint::covered_centres() const {
+  std::vector<Eigen::Vector2d> out;
+  for (const auto& tile : tiles_)
+    for (int j = 0; j < N; ++j)
+      for (std::uint32_t row = tile.rows[j]; row != 0; row &= row - 1) {
+        const int i = std::countr_zero(row);
+        out.emplace_back((static_cast<double>(tile.s) * N + i + 0.5) * resolution_m_,
+                         (static_cast<double>(tile.t) * N + j + 0.5) * resolution_m_);
+      }
+  return out;
+}
+
+Footprint Footprint::from_tiles(double resolution_m, std::vector<FootprintTile> tiles) {
+  Footprint f(resolution_m);
+  for (std::size_t k = 1; k < tiles.size(); ++k)
+    if (!(std::pair(tiles[k - 1].s, tiles[k - 1].t) < std::pair(tiles[k].s, tiles[k].t)))
+      throw StorageError("footprint tiles are not strictly sorted");
+  f.tiles_ = std::move(tiles);
+  return f;
+}
+
+}  // namespace planecell::map

@@ -1,0 +1,62 @@
+#pragma once
+/// The footprint of a surface: which parts of its plane have been observed, as a sparse set of
+/// square tiles of occupancy bits in the surface's 2D basis. Fusing a cell rasterises its polygon
+/// (cv::fillPoly, cell centres) and counts the bits it newly sets, so the per-cell cost is bounded
+/// by the cell's own size, not by the surface's history, and a surface's memory grows with the
+/// area it covers (res² per bit), not with the number of observations.
+#include <array>
+#include <cstdint>
+#include <span>
+#include <vector>
+
+#include "mapping/map/geometry.hpp"
+
+namespace planecell::map {
+
+/// A 32 × 32 block of footprint bits; bit (i, j) covers
+/// [(32·s + i)·res, (32·s + i + 1)·res) × [(32·t + j)·res, (32·t + j + 1)·res) of the basis.
+struct FootprintTile {
+  static constexpr int kSize = 32;
+  std::int32_t s = 0;
+  std::int32_t t = 0;
+  std::array<std::uint32_t, kSize> rows{};  ///< rows[j] bit i
+  bool operator==(const FootprintTile&) const = default;
+};
+
+class Footprint {
+ public:
+  /// Throws ConfigError unless resolution_m is in (0, 10].
+  explicit Footprint(double resolution_m = 0.1);
+
+  /// Marks the bits whose centres lie inside `polygon` (basis coordinates, m). Returns the area
+  /// newly covered: (bits set now that were clear before) · res² (m²).
+  double add_polygon(const Polygon2& polygon);
+  /// Marks the bit containing (s, t); returns true if it was clear.
+  bool add_point(double s, double t);
+
+  /// Covered area: set bits · res² (m²).
+  double area_m2() const;
+  /// True when the bit containing (s, t) is set.
+  bool contains(double s, double t) const;
+  /// Centres (s, t) of every set bit, in tile order.
+  std::vector<Eigen::Vector2d> covered_centres() const;
+
+  double resolution_m() const { return resolution_m_; }
+  std::span<const FootprintTile> tiles() const { return tiles_; }
+  bool empty() const { return tiles_.empty(); }
+  /// Heap bytes (tile vector capacity).
+  std::size_t bytes() const { return tiles_.capacity() * sizeof(FootprintTile); }
+  /// Rebuilds from stored tiles (io::MapStore); throws StorageError when they are not strictly
+  /// sorted by (s, t).
+  static Footprint from_tiles(double resolution_m, std::vector<FootprintTile> tiles);
+  bool operator==(const Footprint&) const = default;
+
+ private:
+  FootprintTile& tile_at(std::int32_t s, std::int32_t t);
+  const FootprintTile* find_tile(std::int32_t s, std::int32_t t) const;
+
+  double resolution_m_ = 0.1;
+  std::vector<FootprintTile> tiles_;  ///< sorted by (s, t)
+};
+
+}  // namespace planecell::map

@@ -1,0 +1,96 @@
+#include "services/eval/merge_metrics.hpp"
+
+#include <algorithm>
+#include <map>
+
+#include "core/error.hpp"
+#include "mapping/map/geometry.hpp"
+
+namespace planecell::services::eval {
+
+void MergeEvaluator::add_frame(const cv::Mat& labels, const cv::Mat& gt_surface_id,
+                               std::span<const Planecell> cells_world,
+                               const map::MergeReport& report) {
+  if (labels.type() != CV_32S || gt_surface_id.type() != CV_16U || labels.size() != gt_surface_id.size())
+    throw InputError("merge evaluation: label image (CV_32S) and GT surface ids (CV_16U) must have the same size");
+  if (report.cell_surfaces.size() != cells_world.size())
+    throw InputError("merge evaluation: the merge report does not describe these cells");
+  // Pixel counts per (label, GT id); label = extraction id = Planecell::id.
+  std::unordered_map<std::int32_t, std::size_t> slot;
+  for (std::size_t i = 0; i < cells_world.size(); ++i) slot.emplace(static_cast<std::int32_t>(cells_world[i].id), i);
+  std::vector<std::map<std::uint16_t, std::uint32_t>> counts(cells_world.size());
+  std::vector<std::uint32_t> totals(cells_world.size(), 0);
+  for (int r = 0; r < labels.rows; ++r) {
+    const auto* l = labels.ptr<std::int32_t>(r);
+    const auto* g = gt_surface_id.ptr<std::uint16_t>(r);
+    for (int c = 0; c < labels.cols; ++c) {
+      const auto it = slot.find(l[c]);
+      if (it == slot.end()) continue;
+      ++counts[it->second][g[c]];
+      ++totals[it->second];
+    }
+  }
+  for (std::size_t i = 0; i < cells_world.size(); ++i) {
+    if (report.cell_surfaces[i] == kNoSurface || totals[i] == 0) continue;
+    const auto best = std::max_element(counts[i].begin(), counts[i].end(),
+                                       [](const auto& a, const auto& b) { return a.second < b.second; });
+    if (best->first == 0 || 2 * best->second < totals[i]) {
+      ++mixed_;
+      continue;
+    }
+    samples_.push_back({best->first, static_cast<float>(map::polygon_area_m2(cells_world[i].vertices_m)),
+                        report.cell_surfaces[i]});
+  }
+  for (const auto& merge : report.surface_merges) merged_into_[merge.absorbed] = merge.into;
+}
+
+std::uint32_t MergeEvaluator::final_label(std::uint32_t label) const {
+  for (auto it = merged_into_.find(label); it != merged_into_.end(); it = merged_into_.find(label))
+    label = it->second;
+  return label;
+}
+
+MergeMetrics MergeEvaluator::finish() const {
+  MergeMetrics m;
+  m.cells = samples_.size();
+  m.mixed_cells = mixed_;
+  std::map<std::uint16_t, std::map<std::uint32_t, double>> gt_label_area;
+  std::map<std::uint32_t, std::map<std::uint16_t, double>> label_gt_area;
+  std::vector<std::uint32_t> final_labels;
+  final_labels.reserve(samples_.size());
+  for (const auto& s : samples_) {
+    const std::uint32_t label = final_label(s.label);
+    final_labels.push_back(label);
+    gt_label_area[s.gt][label] += s.area_m2;
+    label_gt_area[label][s.gt] += s.area_m2;
+  }
+  m.gt_surfaces = gt_label_area.size();
+  m.labels = label_gt_area.size();
+  double total = 0.0, dominant = 0.0, one_label = 0.0;
+  for (const auto& [gt, per_label] : gt_label_area) {
+    double area = 0.0, best = 0.0;
+    for (const auto& [label, a] : per_label) {
+      area += a;
+      best = std::max(best, a);
+    }
+    total += area;
+    dominant += best;
+    if (best >= 0.9 * area) one_label += area;
+  }
+  if (total > 0.0) {
+    m.area_in_dominant_label = dominant / total;
+    m.area_one_label = one_label / total;
+  }
+  std::map<std::uint32_t, std::uint16_t> dominant_gt;
+  for (const auto& [label, per_gt] : label_gt_area)
+    dominant_gt[label] = std::max_element(per_gt.begin(), per_gt.end(), [](const auto& a, const auto& b) {
+                           return a.second < b.second;
+                         })->first;
+  std::size_t crossed = 0;
+  for (std::size_t k = 0; k < samples_.size(); ++k)
+    if (dominant_gt.at(final_labels[k]) != samples_[k].gt) ++crossed;
+  if (!samples_.empty()) m.cross_merged_cells = static_cast<double>(crossed) / static_cast<double>(samples_.size());
+  return m;
+}
+
+}  // namespace planecell::services::eval

@@ -1,0 +1,86 @@
+/// Surface footprints as occupancy bits: areas, overlaps, tile seams and bad input, against
+/// hand-counted bit centres.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+
+#include "core/error.hpp"
+#include "mapping/map/footprint.hpp"
+
+namespace planecell::map {
+namespace {
+
+Polygon2 rectangle(double s0, double t0, double s1, double t1) {
+  Polygon2 p;
+  for (auto [s, t] : {std::pair{s0, t0}, {s0, t1}, {s1, t1}, {s1, t0}, {s0, t0}})
+    p.outer().push_back(Point2(s, t));
+  return p;
+}
+
+TEST(Footprint, SquareCoversTheBitsWhoseCentresLieInside) {
+  Footprint f(0.1);
+  // [0.01, 0.99]² holds the centres 0.05 … 0.95: 10 × 10 bits = 1 m².
+  EXPECT_NEAR(f.add_polygon(rectangle(0.01, 0.01, 0.99, 0.99)), 1.0, 1e-9);
+  EXPECT_NEAR(f.area_m2(), 1.0, 1e-9);
+  EXPECT_TRUE(f.contains(0.55, 0.55));
+  EXPECT_FALSE(f.contains(1.05, 0.55));
+  EXPECT_EQ(f.covered_centres().size(), 100u);
+}
+
+TEST(Footprint, ReObservationAddsOnlyTheNewPart) {
+  Footprint f(0.1);
+  f.add_polygon(rectangle(0.01, 0.01, 0.99, 0.99));
+  EXPECT_NEAR(f.add_polygon(rectangle(0.01, 0.01, 0.99, 0.99)), 0.0, 1e-12);
+  // Shifted by half: 5 new columns of 10 bits.
+  EXPECT_NEAR(f.add_polygon(rectangle(0.51, 0.01, 1.49, 0.99)), 0.5, 1e-9);
+  EXPECT_NEAR(f.area_m2(), 1.5, 1e-9);
+}
+
+TEST(Footprint, SquareAcrossTileSeamsAndNegativeCoordinates) {
+  Footprint f(0.1);
+  // [−3.29, 3.29]² holds centres −3.25 … 3.25: 66 × 66 bits across 3.2 m tiles on both axes.
+  EXPECT_NEAR(f.add_polygon(rectangle(-3.29, -3.29, 3.29, 3.29)), 66 * 66 * 0.01, 1e-9);
+  EXPECT_GE(f.tiles().size(), 4u);
+  EXPECT_TRUE(f.contains(-3.2, -3.2));
+  EXPECT_TRUE(f.contains(3.2, 0.0));
+  EXPECT_FALSE(f.contains(-3.35, 0.0));
+  EXPECT_EQ(f.covered_centres().size(), 66u * 66u);
+}
+
+TEST(Footprint, TriangleAreaWithinOneBitRowOfTheExactArea) {
+  Footprint f(0.05);
+  Polygon2 tri;
+  for (auto [s, t] : {std::pair{0.0, 0.0}, {0.0, 4.0}, {4.0, 0.0}, {0.0, 0.0}}) tri.outer().push_back(Point2(s, t));
+  const double area = f.add_polygon(tri);
+  // Exact area 8 m²; the legs lie on bit edges (no error), and each bit the hypotenuse (5.66 m)
+  // crosses may fall in or out: |error| ≤ 5.66 m / res · res² ≈ 0.283 m² plus the bits it only
+  // touches at their corners (fillPoly takes edge pixels): allow 1.2 × that.
+  EXPECT_NEAR(area, 8.0, 1.2 * 5.66 * 0.05);
+}
+
+TEST(Footprint, PointsAndRebuildFromTiles) {
+  Footprint f(0.2);
+  EXPECT_TRUE(f.add_point(1.01, -0.39));
+  EXPECT_FALSE(f.add_point(1.19, -0.21));  // same 0.2 m bit [1.0, 1.2) × [−0.4, −0.2)
+  EXPECT_TRUE(f.contains(1.1, -0.3));
+  EXPECT_NEAR(f.area_m2(), 0.04, 1e-12);
+  const Footprint copy = Footprint::from_tiles(0.2, {f.tiles().begin(), f.tiles().end()});
+  EXPECT_EQ(copy, f);
+}
+
+TEST(Footprint, BadInputIsRejectedOrIgnored) {
+  EXPECT_THROW(Footprint(0.0), ConfigError);
+  EXPECT_THROW(Footprint(-1.0), ConfigError);
+  FootprintTile a, b;
+  a.s = 1;
+  b.s = 0;
+  EXPECT_THROW(Footprint::from_tiles(0.1, {a, b}), StorageError);
+  Footprint f(0.1);
+  EXPECT_EQ(f.add_polygon(rectangle(0, 0, std::nan(""), 1)), 0.0);
+  EXPECT_FALSE(f.add_point(std::numeric_limits<double>::infinity(), 0.0));
+  EXPECT_TRUE(f.empty());
+}
+
+}  // namespace
+}  // namespace planecell::map
