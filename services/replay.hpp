@@ -13,6 +13,7 @@
 #include "core/config/app_config.hpp"
 #include "services/eval/merge_metrics.hpp"
 #include "services/latency_stats.hpp"
+#include "services/refine_stage.hpp"
 
 namespace planecell::services {
 
@@ -52,6 +53,7 @@ struct ReplayReport {
   std::optional<eval::MergeMetrics> merge_metrics;
   std::vector<std::pair<std::string, LatencySummary>> stage_latency;  ///< per stage, ms
   double wall_s = 0.0;
+  std::optional<RefineSummary> refine;  ///< pose refinement (config.refine.enabled)
 };
 
 /// Runs the replay. Throws InputError on a bad sequence (missing poses, unreadable frames

@@ -3,6 +3,7 @@
 /// Loaded from YAML (services/config_loader) with one top-level section per member.
 #include "core/config/map_config.hpp"
 #include "core/config/planecell_config.hpp"
+#include "core/config/refine_config.hpp"
 #include "core/config/sgm_config.hpp"
 #include "core/config/synth_config.hpp"
 
@@ -14,6 +15,7 @@ struct AppConfig {
   MapConfig map;
   VoxelConfig voxel;
   SynthConfig synth;
+  RefineConfig refine;
 };
 
 /// Visits every section with its YAML key.
@@ -24,6 +26,7 @@ void visit_sections(AppConfig& c, Visitor&& visit) {
   visit("map", c.map);
   visit("voxel", c.voxel);
   visit("synth", c.synth);
+  visit("refine", c.refine);
 }
 
 }  // namespace planecell

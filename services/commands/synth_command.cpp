@@ -10,6 +10,8 @@
 #include <string>
 
 #include "core/error.hpp"
+#include "io/kitti_odometry.hpp"
+#include "io/synthetic/pose_noise.hpp"
 #include "io/synthetic/synthetic_world.hpp"
 #include "services/commands/commands.hpp"
 
@@ -22,6 +24,7 @@ struct SynthOptions {
   std::optional<std::uint64_t> seed;
   bool loop = false;
   std::optional<double> noise;
+  std::string pose_noise;
 };
 
 }  // namespace
@@ -44,6 +47,10 @@ void add_synth_command(CLI::App& app, CommandContext& context) {
   command->add_flag("--loop", options->loop,
                     "Drive around a closed block twice (the second lap re-observes the first)");
   command->add_option("--noise", options->noise, "Sensor noise sigma in grey levels (0 = none)");
+  command->add_option("--pose-noise", options->pose_noise,
+                      "TRANS_PER_M,ROT_DEG_PER_M: also write poses_noisy.txt (KITTI format, in the\n"
+                      "output folder) with seeded random-walk odometry drift, e.g. 0.01,0.1 = 1 % and\n"
+                      "0.1 deg per metre driven; replay it with `replay --poses OUT/poses_noisy.txt`");
   context.add(command, [options](const CommandContext& ctx) {
     SynthConfig config = ctx.load_app_config().synth;
     if (options->frames) config.frames = *options->frames;
@@ -52,6 +59,9 @@ void add_synth_command(CLI::App& app, CommandContext& context) {
     if (options->height) config.height = *options->height;
     if (options->noise) config.sensor_noise_sigma = *options->noise;
     if (options->loop) config.loop = true;
+    const std::optional<io::PoseDrift> pose_drift =
+        options->pose_noise.empty() ? std::nullopt
+                                    : std::optional(io::parse_pose_drift(options->pose_noise));
     const std::filesystem::path out_dir(options->out_dir);
     if (std::filesystem::exists(out_dir) && !std::filesystem::is_directory(out_dir))
       throw StorageError("output folder '" + out_dir.string() + "' exists and is not a folder");
@@ -72,6 +82,12 @@ void add_synth_command(CLI::App& app, CommandContext& context) {
           }
         },
         config.png_compression);
+    if (pose_drift) {  // noisy odometry beside the ground truth (same seed as the world)
+      io::write_kitti_poses(out_dir / "poses_noisy.txt",
+                        io::add_odometry_drift(world.trajectory, *pose_drift, config.seed));
+      spdlog::info("synth: noisy odometry ({} m/m, {} deg/m) in {}", pose_drift->translation_per_m,
+                   pose_drift->rotation_deg_per_m, (out_dir / "poses_noisy.txt").string());
+    }
     const double total_s =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     const double n = static_cast<double>(std::max<std::size_t>(stats.frames, 1));
