@@ -36,7 +36,7 @@ std::filesystem::path ensure_parent(const std::filesystem::path& path) {
 
 }  // namespace
 
-cv::Mat read_pfm(const std::filesystem::path& path) {
+cv::Mat read_pfm(const std::filesystem::path& path, std::int64_t max_pixels) {
   std::ifstream in(path, std::ios::binary);
   if (!in) throw InputError("PFM '" + path.string() + "': file not found or unreadable");
   const std::string magic = next_token(in, path);
@@ -56,9 +56,20 @@ cv::Mat read_pfm(const std::filesystem::path& path) {
   if (width <= 0 || height <= 0 || width > 65535 || height > 65535 || scale == 0.0 ||
       !std::isfinite(scale))
     throw InputError("PFM '" + path.string() + "': bad size or scale in header");
+  if (static_cast<std::int64_t>(width) * height > max_pixels)
+    throw InputError("PFM '" + path.string() + "': " + std::to_string(width) + "x" +
+                     std::to_string(height) + " exceeds the limit of " +
+                     std::to_string(max_pixels) + " pixels");
   in.get();  // the single whitespace after the scale
   const bool little_endian = scale < 0.0;
   const std::size_t count = static_cast<std::size_t>(width) * height * channels;
+  // The data must be in the file before the buffer for it is allocated.
+  const std::streamoff data_start = in.tellg();
+  std::error_code ec;
+  const auto file_size = std::filesystem::file_size(path, ec);
+  if (ec || data_start < 0 || file_size < static_cast<std::uintmax_t>(data_start) + count * 4)
+    throw InputError("PFM '" + path.string() + "': truncated data (expected " +
+                     std::to_string(count * 4) + " bytes)");
   std::vector<float> data(count);
   in.read(reinterpret_cast<char*>(data.data()), static_cast<std::streamsize>(count * 4));
   if (static_cast<std::size_t>(in.gcount()) != count * 4)
@@ -100,8 +111,8 @@ void write_pfm(const std::filesystem::path& path, const cv::Mat& disparity) {
   if (!out) throw StorageError("PFM '" + path.string() + "': write failed (disk full?)");
 }
 
-cv::Mat read_kitti_disparity(const std::filesystem::path& path) {
-  const cv::Mat raw = read_image_unchanged(path);
+cv::Mat read_kitti_disparity(const std::filesystem::path& path, std::int64_t max_pixels) {
+  const cv::Mat raw = read_image_unchanged(path, max_pixels);
   if (raw.type() != CV_16UC1)
     throw InputError("KITTI disparity '" + path.string() + "': expected a 16-bit single-channel PNG");
   cv::Mat out(raw.size(), CV_32F);

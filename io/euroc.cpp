@@ -172,11 +172,17 @@ EurocCameraCalibration read_euroc_camera(const fs::path& sensor_yaml) {
     throw InputError(where + ": not valid YAML (" + e.what() + ")");
   }
   if (!root.IsMap()) throw InputError(where + ": expected a mapping of key: value");
-  if (root["camera_model"] && root["camera_model"].as<std::string>() != "pinhole")
-    throw InputError(where + ": camera_model '" + root["camera_model"].as<std::string>() +
+  // A text value, or "" when absent; InputError when it is a list or mapping.
+  const auto text_of = [&](const char* key) -> std::string {
+    const YAML::Node value = root[key];
+    if (!value) return "";
+    if (!value.IsScalar()) throw InputError(where + ": '" + key + "' must be a name");
+    return value.Scalar();
+  };
+  if (root["camera_model"] && text_of("camera_model") != "pinhole")
+    throw InputError(where + ": camera_model '" + text_of("camera_model") +
                      "' unsupported (pinhole only)");
-  const std::string model =
-      root["distortion_model"] ? root["distortion_model"].as<std::string>() : "";
+  const std::string model = text_of("distortion_model");
   if (model != "radial-tangential" && model != "radtan")
     throw InputError(where + ": distortion_model '" + model +
                      "' unsupported (radial-tangential only)");
@@ -188,9 +194,13 @@ EurocCameraCalibration read_euroc_camera(const fs::path& sensor_yaml) {
              intrinsics[3], 0, 0, 1);
   calib.distortion = cv::Mat(numbers_of(root, "distortion_coefficients", 4, where), true).reshape(1, 1);
   const auto resolution = numbers_of(root, "resolution", 2, where);
+  // Checked as doubles first: casting an out-of-range double to int is undefined behaviour.
+  if (!(resolution[0] >= 1.0 && resolution[1] >= 1.0 && resolution[0] <= 65535.0 &&
+        resolution[1] <= 65535.0 && resolution[0] * resolution[1] <= kDefaultMaxImagePixels))
+    throw InputError(where + ": resolution must be within [1, 65535] x [1, 65535] and at most " +
+                     std::to_string(kDefaultMaxImagePixels) + " pixels");
   calib.width = static_cast<int>(resolution[0]);
   calib.height = static_cast<int>(resolution[1]);
-  if (calib.width <= 0 || calib.height <= 0) throw InputError(where + ": resolution must be > 0");
   if (!root["T_BS"] || !root["T_BS"].IsMap()) throw InputError(where + ": missing 'T_BS' matrix");
   const auto t = numbers_of(root["T_BS"], "data", 16, where + " T_BS");
   Eigen::Matrix4d m;

@@ -1,6 +1,9 @@
 #include "io/image_io.hpp"
 
+#include <cstring>
+#include <fstream>
 #include <opencv2/imgcodecs.hpp>
+#include <string>
 #include <vector>
 
 #include "core/error.hpp"
@@ -8,12 +11,31 @@
 namespace planecell::io {
 namespace {
 
-cv::Mat read_with_flags(const std::filesystem::path& path, int flags) {
+std::uint32_t big_endian(const unsigned char* p, int bytes) {
+  std::uint32_t v = 0;
+  for (int i = 0; i < bytes; ++i) v = (v << 8) | p[i];
+  return v;
+}
+
+void check_pixels(const std::filesystem::path& path, std::int64_t width, std::int64_t height,
+                  std::int64_t max_pixels) {
+  if (width <= 0 || height <= 0)
+    throw InputError("image '" + path.string() + "': header claims an empty image (" +
+                     std::to_string(width) + "x" + std::to_string(height) + ")");
+  if (width > max_pixels / height)  // width·height > max_pixels without overflowing (u32 sizes)
+    throw InputError("image '" + path.string() + "': " + std::to_string(width) + "x" +
+                     std::to_string(height) + " exceeds the limit of " +
+                     std::to_string(max_pixels) + " pixels");
+}
+
+cv::Mat read_with_flags(const std::filesystem::path& path, int flags, std::int64_t max_pixels) {
   std::error_code ec;
   if (!std::filesystem::is_regular_file(path, ec))
     throw InputError("image '" + path.string() + "': file not found");
   if (std::filesystem::file_size(path, ec) == 0)
     throw InputError("image '" + path.string() + "': file is empty");
+  if (const auto size = peek_image_size(path))
+    check_pixels(path, size->first, size->second, max_pixels);
   cv::Mat image;
   try {
     image = cv::imread(path.string(), flags);
@@ -22,20 +44,56 @@ cv::Mat read_with_flags(const std::filesystem::path& path, int flags) {
   }
   if (image.empty())
     throw InputError("image '" + path.string() + "': cannot be decoded (corrupt or unsupported)");
+  check_pixels(path, image.cols, image.rows, max_pixels);
   return image;
 }
 
 }  // namespace
 
-cv::Mat read_image(const std::filesystem::path& path, bool colour) {
-  cv::Mat image = read_with_flags(path, colour ? cv::IMREAD_COLOR : cv::IMREAD_GRAYSCALE);
+std::optional<std::pair<std::int64_t, std::int64_t>> peek_image_size(
+    const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw InputError("image '" + path.string() + "': cannot be opened");
+  unsigned char head[24] = {};
+  in.read(reinterpret_cast<char*>(head), sizeof(head));
+  const auto got = in.gcount();
+  // PNG: 8-byte signature, then the IHDR chunk: length, "IHDR", width, height (big-endian u32).
+  static const unsigned char kPng[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
+  if (got >= 24 && std::memcmp(head, kPng, 8) == 0 && std::memcmp(head + 12, "IHDR", 4) == 0)
+    return std::pair<std::int64_t, std::int64_t>{big_endian(head + 16, 4), big_endian(head + 20, 4)};
+  // JPEG: SOI, then segments (FF marker, big-endian length) up to a SOFn frame header:
+  // FF Cn, length, precision, height (u16), width (u16).
+  if (got >= 2 && head[0] == 0xFF && head[1] == 0xD8) {
+    in.clear();
+    in.seekg(2);
+    for (int segment = 0; segment < 4096; ++segment) {
+      unsigned char marker[4];
+      if (!in.read(reinterpret_cast<char*>(marker), 4) || marker[0] != 0xFF) return std::nullopt;
+      const int m = marker[1];
+      const std::uint32_t length = big_endian(marker + 2, 2);
+      if (length < 2) return std::nullopt;
+      const bool sof = m >= 0xC0 && m <= 0xCF && m != 0xC4 && m != 0xC8 && m != 0xCC;
+      if (sof) {
+        unsigned char frame[5];
+        if (!in.read(reinterpret_cast<char*>(frame), 5)) return std::nullopt;
+        return std::pair<std::int64_t, std::int64_t>{big_endian(frame + 3, 2), big_endian(frame + 1, 2)};
+      }
+      in.seekg(length - 2, std::ios::cur);
+    }
+  }
+  return std::nullopt;
+}
+
+cv::Mat read_image(const std::filesystem::path& path, bool colour, std::int64_t max_pixels) {
+  cv::Mat image =
+      read_with_flags(path, colour ? cv::IMREAD_COLOR : cv::IMREAD_GRAYSCALE, max_pixels);
   if (image.depth() != CV_8U)
     throw InputError("image '" + path.string() + "': expected 8-bit image");
   return image;
 }
 
-cv::Mat read_image_unchanged(const std::filesystem::path& path) {
-  return read_with_flags(path, cv::IMREAD_UNCHANGED);
+cv::Mat read_image_unchanged(const std::filesystem::path& path, std::int64_t max_pixels) {
+  return read_with_flags(path, cv::IMREAD_UNCHANGED, max_pixels);
 }
 
 void write_image(const std::filesystem::path& path, const cv::Mat& image, int png_compression) {

@@ -252,14 +252,23 @@ MapStore::MapStore(const std::filesystem::path& path) : path_(path) {
       throw StorageError("map store '" + path.string() +
                          "': not a planecell map (not an SQLite database); left unchanged");
   }
-  const int flags = SQLITE_OPEN_READWRITE | (exists ? 0 : SQLITE_OPEN_CREATE);
-  if (sqlite3_open_v2(path.c_str(), &db_, flags, nullptr) != SQLITE_OK) {
-    const std::string message = db_ ? sqlite3_errmsg(db_) : "out of memory";
-    sqlite3_close(db_);
-    db_ = nullptr;
-    throw StorageError("map store '" + path.string() + "': cannot open (" + message + ")");
-  }
-  sqlite3_extended_result_codes(db_, 1);
+  // A new store is built as <path>.creating and renamed into place once its schema is committed,
+  // so a process killed while creating it never leaves a half-made file at `path` (which the
+  // checks below would refuse as foreign). A stale .creating file from such a kill is replaced.
+  const std::filesystem::path creating = path.string() + ".creating";
+  if (!exists)
+    for (const char* suffix : {"", "-wal", "-shm", "-journal"})
+      std::filesystem::remove(creating.string() + suffix, ec);
+  auto open = [&](const std::filesystem::path& file, int flags) {
+    if (sqlite3_open_v2(file.c_str(), &db_, flags, nullptr) != SQLITE_OK) {
+      const std::string message = db_ ? sqlite3_errmsg(db_) : "out of memory";
+      sqlite3_close(db_);
+      db_ = nullptr;
+      throw StorageError("map store '" + path.string() + "': cannot open (" + message + ")");
+    }
+    sqlite3_extended_result_codes(db_, 1);
+  };
+  open(exists ? path : creating, SQLITE_OPEN_READWRITE | (exists ? 0 : SQLITE_OPEN_CREATE));
   try {
     if (exists) {
       // Read-only checks first: integrity, then the format marker.
@@ -290,13 +299,22 @@ MapStore::MapStore(const std::filesystem::path& path) : path_(path) {
     if (!exists) {
       exec("BEGIN IMMEDIATE");
       exec(kSchema);
-      Statement meta(db_, "INSERT INTO meta(key, value) VALUES (?, ?)", *this);
-      for (const auto& [k, v] : {std::pair<std::string, std::string>{"format", kFormat},
-                                 {"version", kVersion}, {"next_cell_id", "0"}, {"next_surface_id", "0"}}) {
-        meta.bind(1, k).bind(2, v);
-        run(meta, [&] { fail("cannot write the schema"); });
+      {
+        Statement meta(db_, "INSERT INTO meta(key, value) VALUES (?, ?)", *this);
+        for (const auto& [k, v] : {std::pair<std::string, std::string>{"format", kFormat},
+                                   {"version", kVersion}, {"next_cell_id", "0"}, {"next_surface_id", "0"}}) {
+          meta.bind(1, k).bind(2, v);
+          run(meta, [&] { fail("cannot write the schema"); });
+        }
       }
       exec("COMMIT");
+      // Closing checkpoints and removes the WAL, so the schema is all in `creating`.
+      if (sqlite3_close(db_) != SQLITE_OK) fail("cannot finish creating the store");
+      db_ = nullptr;
+      std::filesystem::rename(creating, path, ec);
+      if (ec) throw StorageError("map store '" + path.string() + "': cannot create (" + ec.message() + ")");
+      open(path, SQLITE_OPEN_READWRITE);
+      exec("PRAGMA synchronous=NORMAL");
     }
   } catch (...) {
     sqlite3_close(db_);

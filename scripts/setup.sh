@@ -9,6 +9,7 @@ PACKAGES=(
   libspdlog-dev libcli11-dev liblcm-dev liblcm-bin libreaderwriterqueue-dev
   libgtest-dev libgmock-dev libbenchmark-dev libyaml-cpp-dev libsqlite3-dev sqlite3 libboost-dev
   nlohmann-json3-dev
+  clang-14 libclang-rt-14-dev   # libFuzzer + sanitizer runtimes for scripts/fuzz.sh
 )
 
 missing=()

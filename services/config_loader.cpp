@@ -11,13 +11,33 @@
 namespace planecell::services {
 namespace {
 
+/// The text of a mapping key; ConfigError when it is not a plain scalar (e.g. `[a]: 1`).
+std::string key_text(const YAML::Node& key, const std::string& where) {
+  if (!key.IsScalar())
+    throw ConfigError(where + ": a key must be a plain name, got '" + YAML::Dump(key) + "'");
+  return key.Scalar();
+}
+
+/// Rejects unknown and repeated keys (YAML would silently keep the first of two).
+void check_keys(const YAML::Node& node, const std::string& where,
+                const std::set<std::string>& known, const char* what) {
+  std::set<std::string> seen;
+  for (const auto& entry : node) {
+    const auto key = key_text(entry.first, where);
+    if (!known.contains(key)) throw ConfigError(where + ": unknown " + what + " '" + key + "'");
+    if (!seen.insert(key).second)
+      throw ConfigError(where + ": " + what + " '" + key + "' appears twice");
+  }
+}
+
 /// Reads every known key of one section from `node`; rejects unknown keys.
 template <class Section>
 void read_section(const YAML::Node& node, const std::string& where, Section& section) {
   if (!node.IsMap()) throw ConfigError(where + ": expected a mapping of key: value");
   std::set<std::string> known;
+  visit_fields(section, [&](const char* key, auto&) { known.insert(key); });
+  check_keys(node, where, known, "key");
   visit_fields(section, [&](const char* key, auto& field) {
-    known.insert(key);
     const YAML::Node value = node[key];
     if (!value) return;
     using T = std::decay_t<decltype(field)>;
@@ -28,24 +48,17 @@ void read_section(const YAML::Node& node, const std::string& where, Section& sec
                         "' has the wrong type");
     }
   });
-  for (const auto& entry : node) {
-    const auto key = entry.first.as<std::string>();
-    if (!known.contains(key)) throw ConfigError(where + ": unknown key '" + key + "'");
-  }
 }
 
 void apply_root(const YAML::Node& root, const std::string& source, AppConfig& config) {
   if (!root || root.IsNull()) return;  // empty file: defaults
   if (!root.IsMap()) throw ConfigError(source + ": expected sections (sgm:, extraction:, ...)");
   std::set<std::string> known;
+  visit_sections(config, [&](const char* name, auto&) { known.insert(name); });
+  check_keys(root, source, known, "section");
   visit_sections(config, [&](const char* name, auto& section) {
-    known.insert(name);
     if (root[name]) read_section(root[name], source + ": " + name, section);
   });
-  for (const auto& entry : root) {
-    const auto name = entry.first.as<std::string>();
-    if (!known.contains(name)) throw ConfigError(source + ": unknown section '" + name + "'");
-  }
 }
 
 }  // namespace

@@ -36,6 +36,11 @@ struct SgmConfig {
   int lr_max_diff_px = 2;        ///< |d_L(x) − d_R(x − d_L)| allowed
   int speckle_window_size = 100; ///< max region size (px) removed by cv::filterSpeckles; 0 = off
   double speckle_range_px = 2.0; ///< max disparity step inside one speckle region
+
+  // Resource limits, checked before anything is allocated (ConfigError / InputError).
+  int max_disparity_limit = 1024;       ///< sanity bound on max_disparity (px)
+  double max_image_pixels = 64e6;       ///< larger input images are refused (W·H, pixels)
+  double max_cost_volume_mb = 4096.0;   ///< W·H·max_disparity bytes (the cost volume, MiB)
 };
 
 template <class Visitor>
@@ -57,6 +62,9 @@ void visit_fields(SgmConfig& c, Visitor&& visit) {
   visit("lr_max_diff_px", c.lr_max_diff_px);
   visit("speckle_window_size", c.speckle_window_size);
   visit("speckle_range_px", c.speckle_range_px);
+  visit("max_disparity_limit", c.max_disparity_limit);
+  visit("max_image_pixels", c.max_image_pixels);
+  visit("max_cost_volume_mb", c.max_cost_volume_mb);
 }
 
 }  // namespace planecell

@@ -1,6 +1,7 @@
 /// The SGM disparity stage: validation, then census → cost → aggregation/selection → speckles.
 #include "mapping/stereo/sgm.hpp"
 
+#include <algorithm>
 #include <opencv2/imgproc.hpp>
 #include <memory>
 #include <string>
@@ -35,6 +36,23 @@ void validate_sgm_input(const cv::Mat& left, const cv::Mat& right, const SgmConf
     if (image->type() != CV_8UC1 && image->type() != CV_8UC3)
       throw InputError(std::string("SGM: ") + (image == &left ? "left" : "right") +
                        " image must be 8-bit grey or BGR (CV_8UC1/CV_8UC3)");
+  require(c.max_disparity_limit > 0, "max_disparity_limit must be > 0");
+  require(c.max_image_pixels > 0.0, "max_image_pixels must be > 0");
+  require(c.max_cost_volume_mb > 0.0, "max_cost_volume_mb must be > 0");
+  const double pixels = static_cast<double>(left.cols) * left.rows;
+  if (pixels > c.max_image_pixels)
+    throw InputError("SGM: image " + std::to_string(left.cols) + "x" + std::to_string(left.rows) +
+                     " exceeds sgm.max_image_pixels = " + std::to_string(c.max_image_pixels));
+  require(c.max_disparity <= c.max_disparity_limit,
+          "max_disparity = " + std::to_string(c.max_disparity) +
+              " exceeds max_disparity_limit = " + std::to_string(c.max_disparity_limit));
+  const double volume_mb = pixels * std::max(c.max_disparity, 0) / (1024.0 * 1024.0);
+  require(volume_mb <= c.max_cost_volume_mb,
+          "max_disparity = " + std::to_string(c.max_disparity) + " on a " +
+              std::to_string(left.cols) + "x" + std::to_string(left.rows) + " image needs a " +
+              std::to_string(static_cast<long long>(volume_mb)) +
+              " MiB cost volume, above max_cost_volume_mb = " +
+              std::to_string(static_cast<long long>(c.max_cost_volume_mb)));
   require(c.max_disparity > 0 && c.max_disparity < left.cols,
           "max_disparity = " + std::to_string(c.max_disparity) + " must be in [1, image width " +
               std::to_string(left.cols) + ")");

@@ -1,0 +1,53 @@
+#!/usr/bin/env bash
+# Builds the libFuzzer targets (tests/fuzz, clang + ASan/UBSan) in ./build-fuzz and runs each for a
+# bounded time from its seed corpus. Fails on the first target that crashes, leaks, times out on an
+# input or runs out of memory; the reproducer is left in build-fuzz/findings/<target>/.
+# Env: PLANECELL_FUZZ_SECONDS (per target, default 30), PLANECELL_FUZZ_TARGETS (space-separated
+#      subset, default all), PLANECELL_FUZZ_BUILD_DIR (default build-fuzz), PLANECELL_JOBS.
+# Reproduce a finding: build-fuzz/tests/fuzz/fuzz_<target> build-fuzz/findings/<target>/crash-*
+set -euo pipefail
+cd "$(dirname "$0")/.."
+ROOT=$(pwd)
+BUILD_DIR=${PLANECELL_FUZZ_BUILD_DIR:-build-fuzz}
+SECONDS_EACH=${PLANECELL_FUZZ_SECONDS:-30}
+JOBS=${PLANECELL_JOBS:-$(nproc)}
+TARGETS=${PLANECELL_FUZZ_TARGETS:-"pfm kitti_disparity_png kitti_text euroc config planecell_codec map_store"}
+CXX_BIN=${PLANECELL_FUZZ_CXX:-$(command -v clang++-14 || command -v clang++)}
+LAUNCHER=()
+if command -v ccache >/dev/null 2>&1; then LAUNCHER=(-DCMAKE_CXX_COMPILER_LAUNCHER=ccache); fi
+
+cmake -S . -B "$BUILD_DIR" -DCMAKE_BUILD_TYPE=Debug -DCMAKE_CXX_FLAGS_DEBUG="-O1 -g" \
+  -DCMAKE_CXX_COMPILER="$CXX_BIN" -DPLANECELL_FUZZ=ON -DPLANECELL_BUILD_TESTS=OFF \
+  -DPLANECELL_BUILD_BENCHMARKS=OFF "${LAUNCHER[@]}" >/dev/null
+SECONDS=0
+cmake --build "$BUILD_DIR" -j "$JOBS" --target planecell_fuzz
+echo "[fuzz] build took ${SECONDS}s"
+
+BIN="$BUILD_DIR/tests/fuzz"
+SEEDS="$BUILD_DIR/seeds"
+"$BIN/fuzz_make_seeds" "$SEEDS"
+export ASAN_OPTIONS="detect_leaks=1:halt_on_error=1"
+export UBSAN_OPTIONS="print_stacktrace=1:halt_on_error=1:suppressions=$ROOT/tests/sanitizers/ubsan.supp"
+export LSAN_OPTIONS="suppressions=$ROOT/tests/sanitizers/lsan.supp:print_suppressions=0"
+status=0
+for target in $TARGETS; do
+  work="$BUILD_DIR/corpus/$target"          # grows across runs (libFuzzer writes new inputs here)
+  findings="$BUILD_DIR/findings/$target"
+  mkdir -p "$work" "$findings" "$SEEDS/$target"
+  committed="tests/fuzz/corpus/$target"
+  [ -d "$committed" ] || committed=""
+  echo "[fuzz] $target for ${SECONDS_EACH}s"
+  # -rss_limit_mb/-malloc_limit_mb: a reader that allocates > 1 GiB for a tiny input is a finding
+  # (resource limits are checked before allocating). -timeout: one input taking > 10 s is a hang.
+  if ! "$BIN/fuzz_$target" -max_total_time="$SECONDS_EACH" -timeout=10 -rss_limit_mb=2048 \
+      -malloc_limit_mb=1024 -max_len=65536 -print_final_stats=1 -artifact_prefix="$findings/" \
+      "$work" "$SEEDS/$target" $committed > "$BUILD_DIR/fuzz_$target.log" 2>&1; then
+    echo "[fuzz] $target FAILED: see $BUILD_DIR/fuzz_$target.log and $findings/" >&2
+    tail -40 "$BUILD_DIR/fuzz_$target.log" >&2
+    status=1
+  else
+    grep -E "stat::number_of_executed_units|stat::new_units_added" "$BUILD_DIR/fuzz_$target.log" |
+      tr '\n' ' ' | sed "s/^/[fuzz] $target: /"; echo
+  fi
+done
+exit $status
