@@ -8,6 +8,7 @@ FRAMES=${1:-${PLANECELL_DEMO_FRAMES:-20}}
 OUT=${PLANECELL_DEMO_OUT:-out/demo}
 ./scripts/setup.sh
 ./scripts/build.sh >/dev/null
+./scripts/lcm-route.sh  # `planecell run/feed/listen` use LCM multicast
 BIN=${PLANECELL_BUILD_DIR:-build}/services/planecell
 rm -rf "$OUT"
 mkdir -p "$OUT"

@@ -39,6 +39,9 @@ int main(int argc, char** argv) {
   add_extract_command(app, context);
   add_replay_command(app, context);
   add_export_command(app, context);
+  add_run_command(app, context);
+  add_feed_command(app, context);
+  add_listen_command(app, context);
 
   try {
     app.parse(argc, argv);

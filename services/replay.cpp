@@ -17,6 +17,7 @@
 #include "mapping/planecell/extraction.hpp"
 #include "mapping/stereo/sgm.hpp"
 #include "mapping/voxel/voxel_map.hpp"
+#include "services/pipeline/stages.hpp"
 #include "services/progress.hpp"
 
 namespace planecell::services {
@@ -91,73 +92,79 @@ ReplayReport run_replay(const ReplayOptions& options, const AppConfig& config) {
 
   std::optional<eval::MergeEvaluator> merge_evaluator;
   if (io::has_surface_ground_truth(sequence)) merge_evaluator.emplace();
-  // --- pose refinement hook (issue 9) ---
-  std::optional<RefineStage> refine_stage;
-  if (config.refine.enabled) refine_stage.emplace(config.refine);
+  std::optional<RefineStage> refine_stage;  // pose refinement (issue 9)
+  if (config.refine.enabled) {
+    if (options.threads)
+      throw ConfigError("refine.enabled: pose refinement is not available with --threads yet");
+    refine_stage.emplace(config.refine);
+  }
 
-  LatencyLog latency;
   double plane_fraction_sum = 0.0;
   ProgressBar progress("replay", last > first ? last - first : 0);
-  for (std::size_t index = first; index < last; ++index) {
-    const auto frame_id = static_cast<std::uint64_t>(index);
-    if (committed.contains(frame_id)) {
-      ++report.frames_resumed;
-      continue;
+  // Per-frame bookkeeping, on the calling thread (single-threaded) or the publish thread.
+  auto account = [&](const FrameWork& work) {
+    if (merge_evaluator && !work.cells.labels.empty()) {  // the threaded pipeline drops labels early
+      const auto gt = io::load_sequence_ground_truth(sequence, work.frame_id, work.cells.labels.cols,
+                                                     work.cells.labels.rows);
+      if (gt && !gt->surface_id.empty())
+        merge_evaluator->add_frame(work.cells.labels, gt->surface_id, work.world_cells, work.merge);
     }
-    auto t = Clock::now();
-    const StereoFrame frame = io::load_kitti_frame(sequence, index);
-    latency.add("load", ms_since(t));
-    Pose pose = *frame.pose;
-
-    t = Clock::now();
-    const cv::Mat disparity = stereo::compute_disparity(frame.left, frame.right, config.sgm);
-    latency.add("sgm", ms_since(t));
-
-    t = Clock::now();
-    extraction::PlanecellFrame cells =
-        extraction::extract_planecells(frame.left, disparity, frame.camera, config.extraction);
-    for (auto& cell : cells.cells) cell.frame_id = frame_id;
-    latency.add("extract", ms_since(t));
-
-    if (refine_stage) {  // pose refinement hook (issue 9): the refined pose is used from here on
-      t = Clock::now();
-      pose = refine_stage->refine(frame_id, cells.cells, pose, global_map, frame.camera);
-      latency.add("refine", ms_since(t));
-    }
-
-    t = Clock::now();
-    const std::vector<Planecell> world = map::to_world(cells.cells, pose);
-    latency.add("transform", ms_since(t));
-
-    t = Clock::now();
-    const auto adjacency = map::label_adjacency(cells.labels);
-    const map::MergeReport merge = global_map.integrate(frame_id, pose, world, adjacency);
-    latency.add("merge", ms_since(t));
-    if (merge_evaluator) {
-      const auto gt = io::load_sequence_ground_truth(sequence, index, frame.left.cols, frame.left.rows);
-      if (gt && !gt->surface_id.empty()) merge_evaluator->add_frame(cells.labels, gt->surface_id, world, merge);
-    }
-
-    if (store) {
-      t = Clock::now();
-      store->commit_frame(frame_id, pose, merge, global_map);
-      latency.add("store", ms_since(t));
-    }
-    if (voxel_map) {
-      t = Clock::now();
-      const auto points = voxel::back_project(disparity, frame.left, frame.camera, pose,
-                                              config.voxel.max_range_m);
-      voxel_map->insert(points);
-      latency.add("voxel", ms_since(t));
-    }
-
     ++report.frames;
-    report.cells_extracted += cells.cells.size();
-    report.fused_cells += merge.fused_cells;
-    report.surface_merges += merge.surface_merges.size();
-    plane_fraction_sum += cells.plane_fraction;
+    report.cells_extracted += work.cells.cells.size();
+    report.fused_cells += work.merge.fused_cells;
+    report.surface_merges += work.merge.surface_merges.size();
+    plane_fraction_sum += work.cells.plane_fraction;
     if (options.progress)
-      progress.update(index + 1 - first, "cells " + std::to_string(global_map.cells().size()));
+      progress.update(work.frame_id + 1 - first, "cells " + std::to_string(work.map_cells));
+  };
+
+  if (!options.threads) {
+    LatencyLog latency;
+    for (std::size_t index = first; index < last; ++index) {
+      if (committed.contains(static_cast<std::uint64_t>(index))) {
+        ++report.frames_resumed;
+        continue;
+      }
+      FrameWork work = load_stage(sequence, index);
+      sgm_stage(work, config.sgm);
+      extract_stage(work, config.extraction);
+      if (refine_stage)  // the refined pose is used from here on (transform, merge, store, voxel)
+        work.timed("refine", [&] {
+          work.frame.pose = refine_stage->refine(work.frame_id, work.cells.cells, *work.frame.pose,
+                                                 global_map, work.frame.camera);
+        });
+      transform_stage(work);
+      merge_stage(work, global_map);
+      if (store) store_stage(work, *store, global_map);
+      if (voxel_map) voxel_stage(work, *voxel_map, config.voxel);
+      for (const auto& [stage, ms] : work.stage_ms) latency.add(stage, ms);
+      account(work);
+    }
+    report.stage_latency = latency.summaries();
+  } else {
+    report.threaded = true;
+    PipelineSinks sinks = options.sinks;
+    const PublishFn user_publish = sinks.publish;
+    sinks.publish = [&, user_publish](const FrameWork& work) {
+      if (user_publish) user_publish(work);
+      account(work);
+    };
+    Pipeline pipeline(config, PipelineMode::kReplay, std::move(global_map), store.get(), voxel_map.get(),
+                      std::move(sinks));
+    try {
+      for (std::size_t index = first; index < last; ++index) {
+        if (committed.contains(static_cast<std::uint64_t>(index))) {
+          ++report.frames_resumed;
+          continue;
+        }
+        if (!pipeline.submit(load_stage(sequence, index))) break;  // a stage failed: drain
+      }
+    } catch (...) {
+      pipeline.finish();  // frames loaded before the bad one are mapped and stored
+      throw;
+    }
+    global_map = pipeline.finish();
+    report.stage_latency = pipeline.stats().latency;
   }
   progress.finish();
 
@@ -182,14 +189,17 @@ ReplayReport run_replay(const ReplayOptions& options, const AppConfig& config) {
     report.voxel_mode = config.voxel.ray_casting ? "insertPointCloud (free-space ray casting)"
                                                  : "per-voxel updateNode + integrateNodeColor, no ray casting";
   }
-  if (merge_evaluator) report.merge_metrics = merge_evaluator->finish();
+  if (merge_evaluator) {
+    const auto metrics = merge_evaluator->finish();
+    if (metrics.cells > 0) report.merge_metrics = metrics;  // none from --threads (labels dropped)
+  }
   if (refine_stage) {  // pose refinement hook (issue 9): ground truth = the sequence's own poses
     const auto truth = sequence_ground_truth(options.sequence_dir);
     report.refine = truth ? refine_stage->summary(truth->second, truth->first)
                           : refine_stage->summary({}, std::nullopt);
   }
-  report.stage_latency = latency.summaries();
   report.wall_s = ms_since(start) / 1000.0;
+  report.frames_per_s = report.wall_s > 0.0 ? static_cast<double>(report.frames) / report.wall_s : 0.0;
   return report;
 }
 
@@ -205,7 +215,8 @@ nlohmann::json to_json(const ReplayReport& r) {
       {"surfaces", r.surfaces},         {"fused_cells", r.fused_cells},
       {"surface_merges", r.surface_merges}, {"map_bytes", r.map_bytes},
       {"store_bytes", r.store_bytes},   {"bytes_per_frame", r.bytes_per_frame},
-      {"stage_latency", stages},        {"wall_s", r.wall_s}};
+      {"stage_latency", stages},        {"wall_s", r.wall_s},
+      {"threaded", r.threaded},         {"frames_per_s", r.frames_per_s}};
   if (r.merge_metrics) {
     const auto& m = *r.merge_metrics;
     out["merge_vs_ground_truth"] = {
@@ -228,7 +239,8 @@ std::string summary_text(const ReplayReport& r) {
   out.precision(1);
   out << "replay: " << r.frames << " frames";
   if (r.frames_resumed > 0) out << " (+" << r.frames_resumed << " already in the store)";
-  out << " in " << r.wall_s << " s; " << r.cells_extracted << " cells extracted ("
+  out << " in " << r.wall_s << " s (" << r.frames_per_s << " frames/s" << (r.threaded ? ", threaded" : "")
+      << "); " << r.cells_extracted << " cells extracted ("
       << 100.0 * r.plane_fraction << " % with a plane)\n";
   out << "  map: " << r.cells_in_map << " cells, " << r.surfaces << " surfaces, "
       << r.fused_cells << " re-observations fused, " << r.surface_merges << " surface merges\n";

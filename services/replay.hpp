@@ -14,6 +14,7 @@
 #include "services/eval/merge_metrics.hpp"
 #include "services/latency_stats.hpp"
 #include "services/refine_stage.hpp"
+#include "services/pipeline/pipeline.hpp"
 
 namespace planecell::services {
 
@@ -25,6 +26,11 @@ struct ReplayOptions {
   std::size_t first_frame = 0;                      ///< frames [first, last) are replayed
   std::size_t last_frame = std::numeric_limits<std::size_t>::max();
   bool progress = true;
+  /// Run the stages as the threaded pipeline (services/pipeline) instead of one after another on
+  /// this thread; the map is the same.
+  bool threads = false;
+  /// Threaded only: called on the publish thread with every finished frame (e.g. LCM updates).
+  PipelineSinks sinks;
 };
 
 /// Parses "A:B", "A:" or ":B" into [A, B) (B exclusive). Throws ConfigError on anything else.
@@ -52,11 +58,14 @@ struct ReplayReport {
   /// Merging against the synthetic GT surface ids (sequences with surface_0/), this run's frames.
   std::optional<eval::MergeMetrics> merge_metrics;
   std::vector<std::pair<std::string, LatencySummary>> stage_latency;  ///< per stage, ms
+                                                                      ///< (threaded: + end_to_end)
+  bool threaded = false;
+  double frames_per_s = 0.0;  ///< frames / wall_s
   double wall_s = 0.0;
   std::optional<RefineSummary> refine;  ///< pose refinement (config.refine.enabled)
 };
 
-/// Runs the replay. Throws InputError on a bad sequence (missing poses, unreadable frames
+/// Runs the replay (single-threaded, or the threaded pipeline with options.threads). Throws InputError on a bad sequence (missing poses, unreadable frames
 /// stop the run with the frame named; frames already committed stay in the store).
 ReplayReport run_replay(const ReplayOptions& options, const AppConfig& config);
 

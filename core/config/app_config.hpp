@@ -2,6 +2,7 @@
 /// The whole configuration: one plain struct per stage, each with its defaults.
 /// Loaded from YAML (services/config_loader) with one top-level section per member.
 #include "core/config/map_config.hpp"
+#include "core/config/pipeline_config.hpp"
 #include "core/config/planecell_config.hpp"
 #include "core/config/refine_config.hpp"
 #include "core/config/sgm_config.hpp"
@@ -16,6 +17,8 @@ struct AppConfig {
   VoxelConfig voxel;
   SynthConfig synth;
   RefineConfig refine;
+  PipelineConfig pipeline;
+  LcmConfig lcm;
 };
 
 /// Visits every section with its YAML key.
@@ -27,6 +30,8 @@ void visit_sections(AppConfig& c, Visitor&& visit) {
   visit("voxel", c.voxel);
   visit("synth", c.synth);
   visit("refine", c.refine);
+  visit("pipeline", c.pipeline);
+  visit("lcm", c.lcm);
 }
 
 }  // namespace planecell

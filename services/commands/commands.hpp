@@ -12,5 +12,8 @@ void add_eval_stereo_command(CLI::App& app, CommandContext& context);
 void add_synth_command(CLI::App& app, CommandContext& context);
 void add_info_command(CLI::App& app, CommandContext& context);
 void add_extract_command(CLI::App& app, CommandContext& context);
+void add_run_command(CLI::App& app, CommandContext& context);
+void add_feed_command(CLI::App& app, CommandContext& context);
+void add_listen_command(CLI::App& app, CommandContext& context);
 
 }  // namespace planecell::services

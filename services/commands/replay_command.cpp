@@ -21,7 +21,7 @@ void add_replay_command(CLI::App& app, CommandContext& context) {
       "run with the same --map resumes after the last committed frame.");
   struct Args {
     std::string sequence, map, poses, frames, report;
-    bool voxel = false, ray_casting = false, no_progress = false;
+    bool voxel = false, ray_casting = false, no_progress = false, threads = false;
   };
   auto args = std::make_shared<Args>();
   command->add_option("sequence", args->sequence, "Sequence folder (image_2/3 or image_0/1, calib.txt, poses)")
@@ -36,10 +36,14 @@ void add_replay_command(CLI::App& app, CommandContext& context) {
   command->add_flag("--ray-casting", args->ray_casting,
                     "Voxel baseline with free-space ray casting (insertPointCloud; slow)");
   command->add_flag("--no-progress", args->no_progress, "No progress bar");
+  command->add_flag("--threads", args->threads,
+                    "Run the stages as the threaded pipeline (one thread per stage, bounded queues; "
+                    "section 'pipeline' of the config); builds the same map");
   command->footer(
       "Examples:\n"
       "  planecell replay /tmp/street --map /tmp/street.db --report /tmp/replay.json\n"
       "  planecell replay dataset/sequences/00 --frames 0:50 --voxel\n"
+      "  planecell replay /tmp/street --threads --no-progress   # pipelined: frames/s, end-to-end latency\n"
       "Report: frames, cells, surfaces, map bytes (RAM), store bytes, bytes per frame, voxel\n"
       "bytes/leaves (with --voxel), per-stage latency p50/p95/p99/max (ms).");
   context.add(command, [args](const CommandContext& ctx) {
@@ -53,6 +57,7 @@ void add_replay_command(CLI::App& app, CommandContext& context) {
       std::tie(options.first_frame, options.last_frame) = parse_frame_range(args->frames);
     options.voxel = args->voxel || args->ray_casting;
     options.progress = !args->no_progress;
+    options.threads = args->threads;
     const ReplayReport report = run_replay(options, config);
     std::cout << summary_text(report);
     if (!args->report.empty()) {

@@ -1,0 +1,44 @@
+#pragma once
+/// Configuration of the threaded pipeline (services/pipeline) and of its LCM endpoints
+/// (`planecell run`, `feed`, `listen`).
+#include <string>
+
+namespace planecell {
+
+/// Threaded pipeline: one thread per stage (ingest → sgm → extract → transform → merge(+store)
+/// → publish) joined by bounded single-producer/single-consumer queues.
+struct PipelineConfig {
+  int queue_capacity = 2;  ///< frames waiting between two stages (≥ 1); bounds memory and latency
+  /// SGM worker threads while pipelined (0 = keep sgm.threads). The extract stage runs at the same
+  /// time as SGM, so 1 keeps two busy threads on a 2-core machine instead of three.
+  int sgm_threads = 1;
+  double stats_period_s = 1.0;  ///< how often the daemon publishes map stats (s)
+};
+
+template <class Visitor>
+void visit_fields(PipelineConfig& c, Visitor&& visit) {
+  visit("queue_capacity", c.queue_capacity);
+  visit("sgm_threads", c.sgm_threads);
+  visit("stats_period_s", c.stats_period_s);
+}
+
+/// LCM endpoints. Receivers need a large kernel receive buffer (recv_buf_size in the URL): a
+/// stereo frame arrives as one burst of fragments.
+struct LcmConfig {
+  std::string url = "udpm://239.255.76.67:7667?ttl=0&recv_buf_size=8388608";
+  std::string stereo_channel = "PLANECELL_STEREO";
+  std::string pose_channel = "PLANECELL_POSE";
+  std::string map_update_channel = "PLANECELL_MAP_UPDATE";
+  std::string stats_channel = "PLANECELL_STATS";
+};
+
+template <class Visitor>
+void visit_fields(LcmConfig& c, Visitor&& visit) {
+  visit("url", c.url);
+  visit("stereo_channel", c.stereo_channel);
+  visit("pose_channel", c.pose_channel);
+  visit("map_update_channel", c.map_update_channel);
+  visit("stats_channel", c.stats_channel);
+}
+
+}  // namespace planecell

@@ -1,0 +1,84 @@
+#include "services/pipeline/stages.hpp"
+
+#include "core/error.hpp"
+#include "io/kitti_odometry.hpp"
+#include "io/map_store.hpp"
+#include "mapping/map/pose_transform.hpp"
+#include "mapping/stereo/sgm.hpp"
+#include "mapping/voxel/voxel_map.hpp"
+
+namespace planecell::services {
+
+FrameWork load_stage(const io::KittiOdometrySequence& sequence, std::size_t index) {
+  FrameWork work;
+  work.ingest_time = StageClock::now();
+  work.frame_id = static_cast<std::uint64_t>(index);
+  work.timed("load", [&] { work.frame = io::load_kitti_frame(sequence, index); });
+  work.frame.frame_id = work.frame_id;
+  return work;
+}
+
+void sgm_stage(FrameWork& work, const SgmConfig& config) {
+  work.timed("sgm", [&] {
+    work.disparity = stereo::compute_disparity(work.frame.left, work.frame.right, config);
+  });
+}
+
+void extract_stage(FrameWork& work, const ExtractionConfig& config) {
+  work.timed("extract", [&] {
+    work.cells = extraction::extract_planecells(work.frame.left, work.disparity, work.frame.camera, config);
+    for (auto& cell : work.cells.cells) cell.frame_id = work.frame_id;
+  });
+}
+
+void transform_stage(FrameWork& work) {
+  if (!work.frame.pose)
+    throw InputError("frame " + std::to_string(work.frame_id) + ": no pose to place it in the world");
+  work.timed("transform", [&] {
+    work.world_cells = map::to_world(work.cells.cells, *work.frame.pose);
+    work.adjacency = map::label_adjacency(work.cells.labels);
+  });
+}
+
+void merge_stage(FrameWork& work, map::GlobalMap& map, bool want_delta) {
+  if (!work.frame.pose)
+    throw InputError("frame " + std::to_string(work.frame_id) + ": no pose to merge it with");
+  work.timed("merge", [&] {
+    work.merge = map.integrate(work.frame_id, *work.frame.pose, work.world_cells, work.adjacency);
+    work.map_cells = map.cells().size();
+    if (want_delta) work.delta = make_delta(work.merge, map);
+  });
+}
+
+void store_stage(FrameWork& work, io::MapStore& store, const map::GlobalMap& map) {
+  work.timed("store", [&] { store.commit_frame(work.frame_id, *work.frame.pose, work.merge, map); });
+}
+
+void voxel_stage(FrameWork& work, voxel::VoxelMap& voxels, const VoxelConfig& config) {
+  work.timed("voxel", [&] {
+    const auto points = voxel::back_project(work.disparity, work.frame.left, work.frame.camera,
+                                            *work.frame.pose, config.max_range_m);
+    voxels.insert(points);
+  });
+}
+
+MapDelta make_delta(const map::MergeReport& report, const map::GlobalMap& map) {
+  MapDelta delta;
+  delta.frame_id = report.frame_id;
+  delta.added_cells.reserve(report.added_cells.size());
+  for (const auto id : report.added_cells)
+    if (const Planecell* cell = map.cell(id)) delta.added_cells.push_back(*cell);
+  delta.relabelled_cells.reserve(report.relabelled_cells.size());
+  for (const auto id : report.relabelled_cells)
+    if (const Planecell* cell = map.cell(id)) delta.relabelled_cells.emplace_back(id, cell->surface);
+  delta.removed_cells = report.removed_cells;
+  delta.surface_merges = report.surface_merges;
+  delta.removed_surfaces = report.removed_surfaces;
+  delta.next_cell_id = map.next_cell_id();
+  delta.next_surface_id = map.next_surface_id();
+  delta.map_cells = map.cells().size();
+  delta.map_surfaces = map.surfaces().size();
+  return delta;
+}
+
+}  // namespace planecell::services

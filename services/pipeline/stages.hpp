@@ -1,0 +1,91 @@
+#pragma once
+/// The per-frame stages of the mapping pipeline, one function per stage. `planecell replay` calls
+/// them in sequence on one thread; services/pipeline/pipeline runs each on its own thread. Every
+/// stage reads and writes one FrameWork (the frame, its products and per-stage wall times), so a
+/// new stage (e.g. pose refinement between transform and merge) is one more function here and one
+/// more thread in the pipeline.
+#include <chrono>
+#include <cstdint>
+#include <opencv2/core/mat.hpp>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "core/config/app_config.hpp"
+#include "core/frame.hpp"
+#include "core/planecell.hpp"
+#include "core/pose.hpp"
+#include "io/lcm/map_update.hpp"
+#include "mapping/map/crf_merger.hpp"
+#include "mapping/map/global_map.hpp"
+#include "mapping/planecell/extraction.hpp"
+
+namespace planecell::io {
+class MapStore;
+struct KittiOdometrySequence;
+}  // namespace planecell::io
+namespace planecell::voxel {
+class VoxelMap;
+}
+
+namespace planecell::services {
+
+using StageClock = std::chrono::steady_clock;
+
+/// What the merge stage changed in the map, copied out of it so that a later stage (publish) can
+/// read it while the merge stage already integrates the next frame.
+using MapDelta = io::MapUpdate;
+
+/// One frame on its way through the pipeline.
+struct FrameWork {
+  std::uint64_t frame_id = 0;
+  StereoFrame frame;   ///< input images, camera, pose (required from the transform stage on)
+  StageClock::time_point ingest_time{};  ///< when the frame entered the pipeline (end-to-end start)
+  cv::Mat disparity;                     ///< sgm: CV_32F px, NaN = invalid
+  extraction::PlanecellFrame cells;      ///< extract: camera-frame cells and label image
+  std::vector<Planecell> world_cells;    ///< transform: cells with a plane, world frame
+  std::vector<map::LabelEdge> adjacency; ///< transform: label_adjacency of cells.labels
+  map::MergeReport merge;                ///< merge: what integrate() changed
+  MapDelta delta;                        ///< merge (when asked for): copy of the changes
+  std::size_t map_cells = 0;             ///< merge: cells in the map after this frame
+  /// Wall time of each stage run on this frame, in order ("sgm", "extract", ...), ms.
+  std::vector<std::pair<std::string, double>> stage_ms;
+
+  /// Runs `fn()` and appends its wall time under `stage`.
+  template <class Fn>
+  void timed(const char* stage, Fn&& fn) {
+    const auto start = StageClock::now();
+    fn();
+    stage_ms.emplace_back(stage, std::chrono::duration<double, std::milli>(StageClock::now() - start).count());
+  }
+};
+
+/// load: frame `index` of a KITTI-odometry-layout sequence, frame_id = index. Throws InputError
+/// on an unreadable frame or a frame without a pose.
+FrameWork load_stage(const io::KittiOdometrySequence& sequence, std::size_t index);
+
+/// sgm: disparity of the rectified pair (stereo::compute_disparity).
+void sgm_stage(FrameWork& work, const SgmConfig& config);
+
+/// extract: planecells from the left image and the disparity; every cell gets frame_id.
+void extract_stage(FrameWork& work, const ExtractionConfig& config);
+
+/// transform: cells to the world frame by the frame's pose T_world_cam (map::to_world, planeless
+/// cells dropped) and the frame's label adjacency for the merger. Throws InputError when the
+/// frame has no pose or a bad one.
+void transform_stage(FrameWork& work);
+
+/// merge: GlobalMap::integrate of the world cells. With `want_delta`, copies the changes into
+/// work.delta (MapDelta) for consumers that run after the map has moved on.
+void merge_stage(FrameWork& work, map::GlobalMap& map, bool want_delta = false);
+
+/// store: commits the merged frame to the map store (one transaction).
+void store_stage(FrameWork& work, io::MapStore& store, const map::GlobalMap& map);
+
+/// voxel: back-projects the disparity into the OctoMap voxel baseline.
+void voxel_stage(FrameWork& work, voxel::VoxelMap& voxels, const VoxelConfig& config);
+
+/// The MapDelta of one integrate() report, read from `map` right after it.
+MapDelta make_delta(const map::MergeReport& report, const map::GlobalMap& map);
+
+}  // namespace planecell::services

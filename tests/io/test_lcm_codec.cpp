@@ -1,0 +1,260 @@
+/// LCM codec: exact round trips of frames, poses, cells and chunked map updates; malformed bytes
+/// and values rejected with InputError; every chunk under the byte budget.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+#include <opencv2/core.hpp>
+
+#include "core/error.hpp"
+#include "io/lcm/lcm_codec.hpp"
+#include "support/planecell_fixtures.hpp"
+
+namespace planecell::io {
+namespace {
+
+StereoFrame test_frame() {
+  StereoFrame frame;
+  frame.frame_id = 42;
+  frame.left = cv::Mat(30, 40, CV_8UC3);
+  frame.right = cv::Mat(30, 40, CV_8UC3);
+  cv::randu(frame.left, 0, 255);
+  cv::randu(frame.right, 0, 255);
+  frame.camera.fx = 500.0;
+  frame.camera.fy = 501.0;
+  frame.camera.cx = 20.5;
+  frame.camera.cy = 15.5;
+  frame.camera.baseline_m = 0.25;
+  return frame;
+}
+
+bool same_pixels(const cv::Mat& a, const cv::Mat& b) {
+  return a.size() == b.size() && a.type() == b.type() && cv::norm(a, b, cv::NORM_INF) == 0.0;
+}
+
+bool same_cell(const Planecell& a, const Planecell& b) {
+  return a.id == b.id && a.frame_id == b.frame_id && a.surface == b.surface && a.has_plane == b.has_plane &&
+         a.disparity_plane.a == b.disparity_plane.a && a.disparity_plane.b == b.disparity_plane.b &&
+         a.disparity_plane.c == b.disparity_plane.c && a.plane.normal == b.plane.normal &&
+         a.plane.offset == b.plane.offset && a.vertices_px == b.vertices_px && a.vertices_m == b.vertices_m &&
+         a.mean_rgb == b.mean_rgb && a.histogram == b.histogram && a.area_px == b.area_px &&
+         a.inlier_count == b.inlier_count && a.inlier_ratio == b.inlier_ratio;
+}
+
+Planecell world_cell(std::uint32_t id) {
+  Planecell cell = test::rect_cell(id, {1.0f * static_cast<float>(id), 0.5f, 10.0f}, {0.3f, 0.0f, 0.0f},
+                                   {0.0f, 0.0f, 0.4f}, static_cast<int>(id % 64));
+  cell.frame_id = 7;
+  cell.surface = id / 3;
+  cell.disparity_plane = {0.001, -0.002, 35.5};
+  cell.inlier_count = 321;
+  cell.inlier_ratio = 0.875f;
+  return cell;
+}
+
+TEST(LcmCodec, StereoFrameRoundTripsRawAndPngExactly) {
+  const StereoFrame frame = test_frame();
+  for (const auto encoding : {ImageEncoding::kRaw, ImageEncoding::kPng}) {
+    const auto bytes = encode_bytes(to_lcm(frame, encoding, 1234567));
+    const StereoFrame back = from_lcm(decode_stereo_frame(bytes));
+    EXPECT_EQ(back.frame_id, 42u);
+    EXPECT_DOUBLE_EQ(back.timestamp_s, 1.234567);
+    EXPECT_TRUE(same_pixels(back.left, frame.left));
+    EXPECT_TRUE(same_pixels(back.right, frame.right));
+    EXPECT_EQ(back.camera.fy, 501.0);
+    EXPECT_EQ(back.camera.baseline_m, 0.25);
+    EXPECT_EQ(back.camera.width, 40);
+    EXPECT_EQ(back.camera.height, 30);
+  }
+  const auto raw = to_lcm(frame, ImageEncoding::kRaw, 0);
+  EXPECT_EQ(raw.left.size(), 30u * 40u * 3u);
+}
+
+TEST(LcmCodec, StereoFrameWithBadFieldsIsRejected) {
+  const auto good = to_lcm(test_frame(), ImageEncoding::kRaw, 0);
+  auto bad = good;
+  bad.left.pop_back();  // one byte short of width·height·channels
+  bad.left_size = static_cast<std::int32_t>(bad.left.size());
+  EXPECT_THROW(from_lcm(bad), InputError);
+  bad = good;
+  bad.width = 0;
+  EXPECT_THROW(from_lcm(bad), InputError);
+  bad = good;
+  bad.height = kMaxLcmImageSide + 1;
+  EXPECT_THROW(from_lcm(bad), InputError);
+  bad = good;
+  bad.channels = 2;
+  EXPECT_THROW(from_lcm(bad), InputError);
+  bad = good;
+  bad.encoding = 7;
+  EXPECT_THROW(from_lcm(bad), InputError);
+  bad = good;
+  bad.baseline_m = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_THROW(from_lcm(bad), InputError);
+  bad = good;
+  bad.encoding = planecell_lcm::stereo_frame_t::ENCODING_PNG;  // raw bytes are no PNG
+  EXPECT_THROW(from_lcm(bad), InputError);
+}
+
+TEST(LcmCodec, MalformedBytesAreRejectedNotDecoded) {
+  const auto bytes = encode_bytes(to_lcm(test_frame(), ImageEncoding::kPng, 0));
+  std::vector<std::uint8_t> truncated(bytes.begin(), bytes.end() - 10);
+  EXPECT_THROW(decode_stereo_frame(truncated), InputError);
+  std::vector<std::uint8_t> longer = bytes;
+  longer.push_back(0);
+  EXPECT_THROW(decode_stereo_frame(longer), InputError);
+  std::vector<std::uint8_t> huge_count = bytes;
+  huge_count[74] = 0x7f;  // left_size ≈ 2^31: rejected before anything is allocated
+  EXPECT_THROW(decode_stereo_frame(huge_count), InputError);
+  // A pose's bytes are not a stereo frame (type hash), and garbage is nothing.
+  EXPECT_THROW(decode_stereo_frame(encode_bytes(to_lcm(1, Pose::Identity(), 0))), InputError);
+  EXPECT_THROW(decode_map_update(std::vector<std::uint8_t>(100, 0xAB)), InputError);
+  EXPECT_THROW(decode_pose(std::vector<std::uint8_t>{}), InputError);
+  EXPECT_THROW(decode_map_stats(std::vector<std::uint8_t>(3, 1)), InputError);
+}
+
+TEST(LcmCodec, PoseRoundTripsAndBadMatricesAreRejected) {
+  Pose pose = Pose::Identity();
+  pose.linear() = Eigen::AngleAxisd(0.3, Eigen::Vector3d(1, 2, 3).normalized()).toRotationMatrix();
+  pose.translation() = Eigen::Vector3d(1.5, -2.0, 30.25);
+  const auto message = decode_pose(encode_bytes(to_lcm(9, pose, 5)));
+  EXPECT_EQ(message.frame_id, 9);
+  EXPECT_EQ(message.T_world_cam[3], 1.5);  // row-major: (0, 3) is x
+  EXPECT_TRUE(from_lcm(message).matrix().isApprox(pose.matrix(), 1e-15));
+  auto bad = message;
+  bad.T_world_cam[5] = std::numeric_limits<double>::infinity();
+  EXPECT_THROW(from_lcm(bad), InputError);
+  bad = message;
+  bad.T_world_cam[15] = 2.0;
+  EXPECT_THROW(from_lcm(bad), InputError);
+  bad = message;
+  bad.T_world_cam[0] *= 1.5;  // not a rotation
+  EXPECT_THROW(from_lcm(bad), InputError);
+}
+
+TEST(LcmCodec, PlanecellRoundTripsExactlyAndBadCellsAreRejected) {
+  const Planecell cell = world_cell(5);
+  const Planecell back = from_lcm(to_lcm(cell));
+  EXPECT_TRUE(same_cell(cell, back));
+  auto bad = to_lcm(cell);
+  bad.num_vertices = 3;  // disagrees with the 4 stored
+  EXPECT_THROW(from_lcm(bad), InputError);
+  bad = to_lcm(cell);
+  bad.vertices_m[2][1] = std::nanf("");
+  EXPECT_THROW(from_lcm(bad), InputError);
+  bad = to_lcm(cell);
+  bad.histogram[3] = std::numeric_limits<float>::infinity();
+  EXPECT_THROW(from_lcm(bad), InputError);
+}
+
+MapUpdate big_update(std::uint64_t frame_id, std::uint32_t first_id, std::uint32_t cells) {
+  MapUpdate update;
+  update.frame_id = frame_id;
+  for (std::uint32_t i = 0; i < cells; ++i) update.added_cells.push_back(world_cell(first_id + i));
+  for (std::uint32_t i = 0; i < 5000; ++i) update.relabelled_cells.emplace_back(i, i + 1);
+  update.removed_cells = {3, 4};
+  update.surface_merges = {{frame_id, 8, 2}, {frame_id, 9, 2}};
+  update.removed_surfaces = {8, 9};
+  update.next_cell_id = first_id + cells;
+  update.next_surface_id = 77;
+  update.map_cells = 1234;
+  update.map_surfaces = 55;
+  return update;
+}
+
+TEST(LcmCodec, MapUpdatesAreChunkedUnderTheBudgetAndReassembled) {
+  const MapUpdate update = big_update(3, 100, 400);  // 400 cells × ~440 B ≈ 180 kB
+  const auto chunks = encode_map_update(update, 99);
+  ASSERT_GT(chunks.size(), 3u);
+  std::size_t cells = 0;
+  for (std::size_t i = 0; i < chunks.size(); ++i) {
+    const auto bytes = encode_bytes(chunks[i]);
+    EXPECT_LE(bytes.size(), kMaxLcmMessageBytes);
+    EXPECT_EQ(chunks[i].chunk_index, static_cast<std::int32_t>(i));
+    EXPECT_EQ(chunks[i].chunk_count, static_cast<std::int32_t>(chunks.size()));
+    cells += chunks[i].added.size();
+  }
+  EXPECT_EQ(cells, 400u);
+
+  // Through bytes, delivered out of chunk order.
+  MapUpdateAssembler assembler;
+  std::optional<MapUpdate> whole;
+  for (std::size_t k = 0; k < chunks.size(); ++k) {
+    const std::size_t i = chunks.size() - 1 - k;
+    auto result = assembler.add(decode_map_update(encode_bytes(chunks[i])));
+    if (k + 1 < chunks.size()) EXPECT_FALSE(result.has_value());
+    else whole = std::move(result);
+  }
+  ASSERT_TRUE(whole.has_value());
+  ASSERT_EQ(whole->added_cells.size(), update.added_cells.size());
+  for (std::size_t i = 0; i < update.added_cells.size(); ++i)
+    EXPECT_TRUE(same_cell(whole->added_cells[i], update.added_cells[i])) << i;
+  EXPECT_EQ(whole->relabelled_cells, update.relabelled_cells);
+  EXPECT_EQ(whole->removed_cells, update.removed_cells);
+  EXPECT_EQ(whole->surface_merges, update.surface_merges);
+  EXPECT_EQ(whole->removed_surfaces, update.removed_surfaces);
+  EXPECT_EQ(whole->next_cell_id, 500u);
+  EXPECT_EQ(whole->next_surface_id, 77u);
+  EXPECT_EQ(whole->map_cells, 1234u);
+}
+
+TEST(LcmCodec, AnUpdateThatFitsIsOneChunkAndACellTooBigForTheBudgetIsRejected) {
+  MapUpdate small;
+  small.frame_id = 1;
+  small.added_cells = {world_cell(0), world_cell(1)};
+  EXPECT_EQ(encode_map_update(small, 0).size(), 1u);
+  EXPECT_THROW(encode_map_update(small, 0, 300), InputError);  // one cell is ~440 bytes
+}
+
+TEST(LcmCodec, OutOfOrderDuplicateAndInconsistentChunksAreRejected) {
+  MapUpdateAssembler assembler;
+  const auto frame5 = encode_map_update(big_update(5, 0, 200), 0);
+  ASSERT_GE(frame5.size(), 2u);
+  EXPECT_FALSE(assembler.add(frame5[0]).has_value());
+  EXPECT_THROW(assembler.add(frame5[0]), InputError);  // duplicate
+  auto inconsistent = frame5[1];
+  inconsistent.num_added += 1;
+  EXPECT_THROW(assembler.add(inconsistent), InputError);
+  auto bad_index = frame5[1];
+  bad_index.chunk_index = bad_index.chunk_count;
+  EXPECT_THROW(assembler.add(bad_index), InputError);
+  for (std::size_t i = 1; i < frame5.size(); ++i) assembler.add(frame5[i]);
+  const auto frame4 = encode_map_update(big_update(4, 0, 2), 0);
+  EXPECT_THROW(assembler.add(frame4[0]), InputError);  // older than an applied frame
+  // Frame 7 starts before frame 6 finished: frame 6 is abandoned and counted.
+  const auto frame6 = encode_map_update(big_update(6, 0, 200), 0);
+  const auto frame7 = encode_map_update(big_update(7, 0, 2), 0);
+  EXPECT_FALSE(assembler.add(frame6[0]).has_value());
+  EXPECT_TRUE(assembler.add(frame7[0]).has_value());
+  EXPECT_EQ(assembler.incomplete_frames(), 1u);
+  EXPECT_THROW(assembler.add(frame6[1]), InputError);  // too late now
+}
+
+TEST(LcmCodec, MirrorAppliesAddsRelabelsAndRemovalsAndRejectsUnknownCells) {
+  MapMirror mirror;
+  MapUpdate first;
+  first.frame_id = 0;
+  first.added_cells = {world_cell(0), world_cell(1), world_cell(2)};
+  first.next_cell_id = 3;
+  mirror.apply(first);
+  MapUpdate second;
+  second.frame_id = 1;
+  second.added_cells = {world_cell(3)};
+  second.relabelled_cells = {{0, 9}};
+  second.removed_cells = {2};
+  mirror.apply(second);
+  EXPECT_EQ(mirror.cells.size(), 3u);
+  EXPECT_EQ(mirror.cells.at(0).surface, 9u);
+  EXPECT_FALSE(mirror.cells.contains(2));
+  MapUpdate bad;
+  bad.frame_id = 2;
+  bad.relabelled_cells = {{42, 1}};
+  EXPECT_THROW(mirror.apply(bad), InputError);
+  bad.relabelled_cells.clear();
+  bad.added_cells = {world_cell(1)};  // already there
+  EXPECT_THROW(mirror.apply(bad), InputError);
+  EXPECT_EQ(mirror.cells.size(), 3u);  // a rejected update changes nothing
+}
+
+}  // namespace
+}  // namespace planecell::io
