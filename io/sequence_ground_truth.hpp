@@ -1,10 +1,9 @@
 #pragma once
-/// Ground truth stored beside a KITTI-odometry-layout sequence (written by `planecell synth`):
-/// disp_occ_0/<frame>.png (KITTI 16-bit disparity) and surface_0/<frame>.png (16-bit surface ids).
+/// Ground-truth surface ids stored beside a KITTI-odometry-layout sequence by `planecell synth`
+/// (surface_0/<frame>.png, 16-bit); the GT disparity (disp_occ_0/) is read by io/stereo_datasets.
 #include <cstddef>
-#include <optional>
+#include <opencv2/core/mat.hpp>
 
-#include "core/frame.hpp"
 #include "io/kitti_odometry.hpp"
 
 namespace planecell::io {
@@ -12,10 +11,8 @@ namespace planecell::io {
 /// True when the sequence has per-frame surface ids (surface_0/).
 bool has_surface_ground_truth(const KittiOdometrySequence& sequence);
 
-/// Ground truth of frame `index`: the disparity and/or surface ids that exist for it (empty
-/// matrices for the parts that do not); nullopt when neither exists. Throws InputError naming the
-/// file when one exists but is unreadable, of the wrong type, or not the size of the frame's images.
-std::optional<FrameGroundTruth> load_sequence_ground_truth(const KittiOdometrySequence& sequence,
-                                                           std::size_t index, int width, int height);
+/// GT surface ids of frame `index` (CV_16U), empty when the sequence has none for it. Throws
+/// InputError naming the file when it is unreadable, not 16-bit single-channel, or not width×height.
+cv::Mat load_surface_ids(const KittiOdometrySequence& sequence, std::size_t index, int width, int height);
 
 }  // namespace planecell::io

@@ -104,10 +104,9 @@ ReplayReport run_replay(const ReplayOptions& options, const AppConfig& config) {
   // Per-frame bookkeeping, on the calling thread (single-threaded) or the publish thread.
   auto account = [&](const FrameWork& work) {
     if (merge_evaluator && !work.cells.labels.empty()) {  // the threaded pipeline drops labels early
-      const auto gt = io::load_sequence_ground_truth(sequence, work.frame_id, work.cells.labels.cols,
-                                                     work.cells.labels.rows);
-      if (gt && !gt->surface_id.empty())
-        merge_evaluator->add_frame(work.cells.labels, gt->surface_id, work.world_cells, work.merge);
+      const cv::Mat ids = io::load_surface_ids(sequence, work.frame_id, work.cells.labels.cols,
+                                               work.cells.labels.rows);
+      if (!ids.empty()) merge_evaluator->add_frame(work.cells.labels, ids, work.world_cells, work.merge);
     }
     ++report.frames;
     report.cells_extracted += work.cells.cells.size();

@@ -16,18 +16,21 @@ void MergeEvaluator::add_frame(const cv::Mat& labels, const cv::Mat& gt_surface_
   if (report.cell_surfaces.size() != cells_world.size())
     throw InputError("merge evaluation: the merge report does not describe these cells");
   // Pixel counts per (label, GT id); label = extraction id = Planecell::id.
-  std::unordered_map<std::int32_t, std::size_t> slot;
-  for (std::size_t i = 0; i < cells_world.size(); ++i) slot.emplace(static_cast<std::int32_t>(cells_world[i].id), i);
+  // Extraction ids are small (the frame's cell indices): label → slot through a dense table.
+  std::uint32_t max_id = 0;
+  for (const auto& cell : cells_world) max_id = std::max(max_id, cell.id);
+  constexpr std::size_t kNone = static_cast<std::size_t>(-1);
+  std::vector<std::size_t> slot(cells_world.empty() ? 0 : static_cast<std::size_t>(max_id) + 1, kNone);
+  for (std::size_t i = 0; i < cells_world.size(); ++i) slot[cells_world[i].id] = i;
   std::vector<std::map<std::uint16_t, std::uint32_t>> counts(cells_world.size());
   std::vector<std::uint32_t> totals(cells_world.size(), 0);
   for (int r = 0; r < labels.rows; ++r) {
     const auto* l = labels.ptr<std::int32_t>(r);
     const auto* g = gt_surface_id.ptr<std::uint16_t>(r);
     for (int c = 0; c < labels.cols; ++c) {
-      const auto it = slot.find(l[c]);
-      if (it == slot.end()) continue;
-      ++counts[it->second][g[c]];
-      ++totals[it->second];
+      if (l[c] < 0 || static_cast<std::size_t>(l[c]) >= slot.size() || slot[l[c]] == kNone) continue;
+      ++counts[slot[l[c]]][g[c]];
+      ++totals[slot[l[c]]];
     }
   }
   for (std::size_t i = 0; i < cells_world.size(); ++i) {
