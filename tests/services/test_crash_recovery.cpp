@@ -20,9 +20,9 @@
 #include <thread>
 
 #include "io/map_store.hpp"
-#include "io/synthetic/synthetic_world.hpp"
 #include "services/config_loader.hpp"
 #include "support/expect_error.hpp"
+#include "support/small_street.hpp"
 #include "support/test_data.hpp"
 
 namespace planecell::services {
@@ -159,12 +159,7 @@ std::uintmax_t file_size_or_zero(const fs::path& p) {
 class CrashRecovery : public ::testing::Test {
  protected:
   void SetUp() override {
-    SynthConfig synth;
-    synth.frames = kFrames;
-    synth.seed = 3;
-    synth.width = 320;
-    synth.height = 96;
-    io::write_sequence(io::make_street_world(synth), seq_);
+    test::write_small_street(seq_, kFrames, 3, 320, 96);
     std::ofstream(config_) << kConfigYaml;
     // The uninterrupted reference run, also timing a frame for the kill delays.
     const auto start = Clock::now();

@@ -17,7 +17,7 @@
 #include "io/kitti_odometry.hpp"
 #include "io/lcm/lcm_codec.hpp"
 #include "io/map_store.hpp"
-#include "io/synthetic/synthetic_world.hpp"
+#include "support/small_street.hpp"
 #include "support/test_data.hpp"
 
 namespace planecell::services {
@@ -111,12 +111,7 @@ class Child {
 class LcmEndToEndTest : public ::testing::Test {
  protected:
   void SetUp() override {
-    SynthConfig synth;
-    synth.frames = 6;
-    synth.seed = 11;
-    synth.width = 414;  // a third of KITTI's size keeps the test fast
-    synth.height = 125;
-    io::write_sequence(io::make_street_world(synth), scratch_ / "seq");
+    test::write_small_street(scratch_ / "seq", 6, 11);
     std::ofstream(scratch_ / "config.yaml") << "sgm:\n  max_disparity: 48\n"
                                                "extraction:\n  target_cells: 150\n"
                                                "pipeline:\n  queue_capacity: 8\n  stats_period_s: 0.5\n";

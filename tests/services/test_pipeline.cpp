@@ -9,9 +9,9 @@
 #include "core/error.hpp"
 #include "io/kitti_odometry.hpp"
 #include "io/map_store.hpp"
-#include "io/synthetic/synthetic_world.hpp"
 #include "services/pipeline/pipeline.hpp"
 #include "services/replay.hpp"
+#include "support/small_street.hpp"
 #include "support/test_data.hpp"
 
 namespace planecell::services {
@@ -20,14 +20,8 @@ namespace {
 class PipelineTest : public ::testing::Test {
  protected:
   void SetUp() override {
-    SynthConfig synth;
-    synth.frames = 6;
-    synth.seed = 7;
-    synth.width = 414;  // a third of KITTI's size keeps the test fast
-    synth.height = 125;
-    io::write_sequence(io::make_street_world(synth), scratch_ / "seq");
-    config_.sgm.max_disparity = 48;
-    config_.extraction.target_cells = 150;
+    test::write_small_street(scratch_ / "seq", 6, 7);
+    config_ = test::small_street_config();
     config_.pipeline.queue_capacity = 1;
   }
   ReplayOptions options(const std::string& map_name, bool threads) const {

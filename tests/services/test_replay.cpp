@@ -4,8 +4,8 @@
 
 #include "core/error.hpp"
 #include "io/map_store.hpp"
-#include "io/synthetic/synthetic_world.hpp"
 #include "services/replay.hpp"
+#include "support/small_street.hpp"
 #include "support/test_data.hpp"
 
 namespace planecell::services {
@@ -14,14 +14,8 @@ namespace {
 class ReplayTest : public ::testing::Test {
  protected:
   void SetUp() override {
-    SynthConfig synth;
-    synth.frames = 4;
-    synth.seed = 5;
-    synth.width = 414;  // a third of KITTI's size keeps the test fast
-    synth.height = 125;
-    io::write_sequence(io::make_street_world(synth), scratch_ / "seq");
-    config_.sgm.max_disparity = 48;
-    config_.extraction.target_cells = 150;
+    test::write_small_street(scratch_ / "seq", 4, 5);
+    config_ = test::small_street_config();
   }
   test::ScratchDir scratch_;
   AppConfig config_;
