@@ -4,6 +4,7 @@
 #include <opencv2/core.hpp>
 
 #include "core/error.hpp"
+#include "io/disparity_io.hpp"
 #include "io/image_io.hpp"
 
 namespace planecell::io {
@@ -21,6 +22,12 @@ void check_size(const cv::Mat& m, const fs::path& path, int width, int height) {
                      "x" + std::to_string(height));
 }
 
+void check_index(const KittiOdometrySequence& sequence, std::size_t index) {
+  if (index >= sequence.size())
+    throw InputError("ground truth: frame " + std::to_string(index) + " is beyond the sequence's " +
+                     std::to_string(sequence.size()) + " frames");
+}
+
 }  // namespace
 
 bool has_surface_ground_truth(const KittiOdometrySequence& sequence) {
@@ -28,9 +35,7 @@ bool has_surface_ground_truth(const KittiOdometrySequence& sequence) {
 }
 
 cv::Mat load_surface_ids(const KittiOdometrySequence& sequence, std::size_t index, int width, int height) {
-  if (index >= sequence.size())
-    throw InputError("ground truth: frame " + std::to_string(index) + " is beyond the sequence's " +
-                     std::to_string(sequence.size()) + " frames");
+  check_index(sequence, index);
   const fs::path path = beside(sequence, "surface_0", index);
   if (!fs::exists(path)) return {};
   cv::Mat ids = read_image_unchanged(path);
@@ -38,6 +43,20 @@ cv::Mat load_surface_ids(const KittiOdometrySequence& sequence, std::size_t inde
     throw InputError("ground truth '" + path.string() + "': surface ids must be a 16-bit single-channel PNG");
   check_size(ids, path, width, height);
   return ids;
+}
+
+bool has_disparity_ground_truth(const KittiOdometrySequence& sequence) {
+  return fs::is_directory(sequence.root / "disp_occ_0");
+}
+
+cv::Mat load_disparity_ground_truth(const KittiOdometrySequence& sequence, std::size_t index,
+                                    int width, int height) {
+  check_index(sequence, index);
+  const fs::path path = beside(sequence, "disp_occ_0", index);
+  if (!fs::exists(path)) return {};
+  cv::Mat disparity = read_kitti_disparity(path);
+  check_size(disparity, path, width, height);
+  return disparity;
 }
 
 }  // namespace planecell::io

@@ -28,19 +28,23 @@ echo "== 4/7 planecells of frame 0"
   --disparity "$OUT/disparity_000000.pfm" --calib "$OUT/sequence/calib.txt" -o "$OUT/planecells_000000"
 echo
 echo "== 5/7 stereo accuracy against the renderer's ground truth (planecell SGM vs OpenCV SGBM)"
-"$BIN" eval-stereo --dataset synthetic --root "$OUT/sequence" --max-pairs 5 --json "$OUT/eval_stereo.json"
+"$BIN" eval-stereo --dataset synthetic --root "$OUT/sequence" --max-pairs 5 --json "$OUT/eval_stereo.json" \
+  --report-md "$OUT/eval_stereo.md"
 echo
-echo "== 6/7 replay: SGM -> planecells -> world frame -> CRF merge into the global map (+ OctoMap baseline)"
-"$BIN" replay "$OUT/sequence" --map "$OUT/map.db" --voxel --report "$OUT/replay.json"
+echo "== 6/7 bench: SGM -> planecells -> world frame -> CRF merge into the global map, against the"
+echo "       point-based map and the OctoMap voxel map on the same frames (accuracy, memory, time, views)"
+"$BIN" bench "$OUT/sequence" --out "$OUT/bench" --append "$OUT/eval_stereo.md"
 echo
 echo "== 7/7 the map as coloured polygons"
-"$BIN" export "$OUT/map.db" -o "$OUT/map_surfaces.ply" --color surface
-"$BIN" export "$OUT/map.db" -o "$OUT/map_rgb.ply" --color rgb
+"$BIN" export "$OUT/bench/map.db" -o "$OUT/map_surfaces.ply" --color surface
+"$BIN" export "$OUT/bench/map.db" -o "$OUT/map_rgb.ply" --color rgb
 echo
 echo "Outputs in $OUT:"
 echo "  sequence/                 KITTI odometry layout (image_2/3, calib.txt, poses/00.txt, times.txt, GT disparity + surfaces)"
 echo "  disparity_000000.pfm/.png SGM disparity of frame 0 and its colour preview"
 echo "  planecells_000000/        overlay.png, dense.pfm, labels.png, cells.ply, cells.json"
-echo "  eval_stereo.json          accuracy table"
-echo "  map.db, replay.json       the global map (SQLite; planecell info out/demo/map.db) and the replay report"
+echo "  eval_stereo.json/.md      stereo accuracy table (JSON, markdown)"
+echo "  bench/                    report.md + report.json (with the replay report), figures (*.png), map.db (the global map)"
 echo "  map_surfaces.ply, map_rgb.ply  the map coloured by surface label / image colour (MeshLab, CloudCompare)"
+echo
+echo "Report: $OUT/bench/report.md"

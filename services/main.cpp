@@ -42,6 +42,7 @@ int main(int argc, char** argv) {
   add_run_command(app, context);
   add_feed_command(app, context);
   add_listen_command(app, context);
+  add_bench_command(app, context);
 
   try {
     app.parse(argc, argv);

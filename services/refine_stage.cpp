@@ -43,7 +43,11 @@ Pose RefineStage::refine(std::uint64_t frame_id, std::span<const Planecell> cell
   // Re-orthonormalise: the product of three poses carries round-off.
   record.predicted.linear() =
       Eigen::Quaterniond(record.predicted.linear()).normalized().toRotationMatrix();
-  const refine::PoseRefinement result = refine::refine_pose(cells_cam, record.predicted, map, camera, config_);
+  // Distance driven since the previous frame (odometry increment): widens the prior.
+  const double step_m =
+      frames_.empty() ? 0.0 : (frames_.back().input.inverse() * input).translation().norm();
+  const refine::PoseRefinement result =
+      refine::refine_pose(cells_cam, record.predicted, map, camera, config_, step_m);
   record.refined = result.refined;
   record.status = refine::to_string(result.status);
   record.correction = result.status == refine::RefineStatus::kRefined

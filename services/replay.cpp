@@ -6,6 +6,7 @@
 #include <memory>
 #include <set>
 #include <sstream>
+#include <thread>
 
 #include "core/error.hpp"
 #include "io/kitti_odometry.hpp"
@@ -17,6 +18,7 @@
 #include "mapping/planecell/extraction.hpp"
 #include "mapping/stereo/sgm.hpp"
 #include "mapping/voxel/voxel_map.hpp"
+#include "services/pipeline/process_memory.hpp"
 #include "services/pipeline/stages.hpp"
 #include "services/progress.hpp"
 
@@ -34,6 +36,26 @@ std::size_t file_bytes(const std::filesystem::path& path) {
   const auto size = std::filesystem::file_size(path, ec);
   return ec ? 0 : static_cast<std::size_t>(size);
 }
+
+/// Camera-rate input: next() sleeps until frame k of the run is due (start + k / rate_hz) and
+/// returns that due time; without a rate it returns now at once.
+class Pacer {
+ public:
+  explicit Pacer(double rate_hz) : rate_hz_(rate_hz), start_(Clock::now()) {}
+  bool paced() const { return rate_hz_ > 0.0; }
+  Clock::time_point next() {
+    if (!paced()) return Clock::now();
+    const auto due = start_ + std::chrono::duration_cast<Clock::duration>(
+                                  std::chrono::duration<double>(static_cast<double>(k_++) / rate_hz_));
+    std::this_thread::sleep_until(due);
+    return due;
+  }
+
+ private:
+  double rate_hz_;
+  Clock::time_point start_;
+  std::size_t k_ = 0;
+};
 
 std::size_t parse_index(const std::string& text, const std::string& whole) {
   std::size_t used = 0;
@@ -71,9 +93,12 @@ ReplayReport run_replay(const ReplayOptions& options, const AppConfig& config) {
   const std::size_t first = std::min(options.first_frame, sequence.size());
   const std::size_t last = std::min(options.last_frame, sequence.size());
 
+  if (!(options.rate_hz >= 0.0))
+    throw ConfigError("replay: rate " + std::to_string(options.rate_hz) + " Hz: must be >= 0");
   ReplayReport report;
   report.sequence = options.sequence_dir.string();
   report.voxel = options.voxel;
+  report.rate_hz = options.rate_hz;
 
   std::unique_ptr<io::MapStore> store;
   map::GlobalMap global_map(config.map);
@@ -100,6 +125,10 @@ ReplayReport run_replay(const ReplayOptions& options, const AppConfig& config) {
   }
 
   double plane_fraction_sum = 0.0;
+  auto sample_memory = [&](std::size_t map_bytes) {
+    report.memory.push_back({report.frames, ms_since(start) / 1000.0, resident_bytes(), map_bytes});
+  };
+  if (options.memory_sample_every > 0) sample_memory(global_map.map_bytes());
   ProgressBar progress("replay", last > first ? last - first : 0);
   // Per-frame bookkeeping, on the calling thread (single-threaded) or the publish thread.
   auto account = [&](const FrameWork& work) {
@@ -113,18 +142,29 @@ ReplayReport run_replay(const ReplayOptions& options, const AppConfig& config) {
     report.fused_cells += work.merge.fused_cells;
     report.surface_merges += work.merge.surface_merges.size();
     plane_fraction_sum += work.cells.plane_fraction;
+    if (options.memory_sample_every > 0 && report.frames % options.memory_sample_every == 0)
+      sample_memory(work.map_bytes);
     if (options.progress)
       progress.update(work.frame_id + 1 - first, "cells " + std::to_string(work.map_cells));
   };
 
+  Pacer pacer(options.rate_hz);
+  // Loads frame `index` once it is due (paced: end-to-end latency counts from the due time).
+  auto load_when_due = [&](std::size_t index) {
+    const auto due = pacer.next();
+    FrameWork work = load_stage(sequence, index);
+    if (pacer.paced()) work.ingest_time = due;
+    return work;
+  };
   if (!options.threads) {
     LatencyLog latency;
+    StageCostLog costs;
     for (std::size_t index = first; index < last; ++index) {
       if (committed.contains(static_cast<std::uint64_t>(index))) {
         ++report.frames_resumed;
         continue;
       }
-      FrameWork work = load_stage(sequence, index);
+      FrameWork work = load_when_due(index);
       sgm_stage(work, config.sgm);
       extract_stage(work, config.extraction);
       if (refine_stage)  // the refined pose is used from here on (transform, merge, store, voxel)
@@ -133,13 +173,17 @@ ReplayReport run_replay(const ReplayOptions& options, const AppConfig& config) {
                                                  global_map, work.frame.camera);
         });
       transform_stage(work);
-      merge_stage(work, global_map);
+      merge_stage(work, global_map, options.sinks.want_delta);
       if (store) store_stage(work, *store, global_map);
       if (voxel_map) voxel_stage(work, *voxel_map, config.voxel);
+      if (options.sinks.publish) work.timed("publish", [&] { options.sinks.publish(work); });
       for (const auto& [stage, ms] : work.stage_ms) latency.add(stage, ms);
+      costs.add(work);
       account(work);
+      if (options.observe) options.observe(work);
     }
     report.stage_latency = latency.summaries();
+    report.stage_cost = costs.summaries();
   } else {
     report.threaded = true;
     PipelineSinks sinks = options.sinks;
@@ -147,7 +191,9 @@ ReplayReport run_replay(const ReplayOptions& options, const AppConfig& config) {
     sinks.publish = [&, user_publish](const FrameWork& work) {
       if (user_publish) user_publish(work);
       account(work);
+      if (options.observe) options.observe(work);
     };
+    if (options.observe) sinks.keep_images = true;
     Pipeline pipeline(config, PipelineMode::kReplay, std::move(global_map), store.get(), voxel_map.get(),
                       std::move(sinks));
     try {
@@ -156,21 +202,26 @@ ReplayReport run_replay(const ReplayOptions& options, const AppConfig& config) {
           ++report.frames_resumed;
           continue;
         }
-        if (!pipeline.submit(load_stage(sequence, index))) break;  // a stage failed: drain
+        if (!pipeline.submit(load_when_due(index))) break;  // a stage failed: drain
       }
     } catch (...) {
       pipeline.finish();  // frames loaded before the bad one are mapped and stored
       throw;
     }
     global_map = pipeline.finish();
-    report.stage_latency = pipeline.stats().latency;
+    const PipelineStats stats = pipeline.stats();
+    report.stage_latency = stats.latency;
+    report.stage_cost = stats.stage_cost;
   }
   progress.finish();
+  report.map_bytes = global_map.map_bytes();
+  if (options.memory_sample_every > 0 && (report.memory.empty() || report.memory.back().frames != report.frames))
+    sample_memory(report.map_bytes);
+  report.peak_rss_bytes = peak_resident_bytes();
 
   report.plane_fraction = report.frames > 0 ? plane_fraction_sum / static_cast<double>(report.frames) : 0.0;
   report.cells_in_map = global_map.cells().size();
   report.surfaces = global_map.surfaces().size();
-  report.map_bytes = global_map.map_bytes();
   const std::size_t frames_in_map = report.frames + committed.size();
   report.bytes_per_frame =
       frames_in_map > 0 ? static_cast<double>(report.map_bytes) / static_cast<double>(frames_in_map) : 0.0;
@@ -215,7 +266,21 @@ nlohmann::json to_json(const ReplayReport& r) {
       {"surface_merges", r.surface_merges}, {"map_bytes", r.map_bytes},
       {"store_bytes", r.store_bytes},   {"bytes_per_frame", r.bytes_per_frame},
       {"stage_latency", stages},        {"wall_s", r.wall_s},
-      {"threaded", r.threaded},         {"frames_per_s", r.frames_per_s}};
+      {"threaded", r.threaded},         {"frames_per_s", r.frames_per_s},
+      {"rate_hz", r.rate_hz}};
+  nlohmann::json costs = nlohmann::json::object();
+  for (const auto& [name, c] : r.stage_cost)
+    costs[name] = {{"cpu_p50_ms", c.cpu.p50_ms}, {"cpu_p95_ms", c.cpu.p95_ms},
+                   {"cpu_mean_ms", c.cpu.mean_ms}, {"minor_faults_mean", c.minor_faults_mean}};
+  out["stage_cost"] = costs;
+  constexpr double kMb = 1024.0 * 1024.0;
+  nlohmann::json rss = nlohmann::json::array();
+  for (const auto& m : r.memory)
+    rss.push_back({{"frames", m.frames}, {"t_s", m.elapsed_s},
+                   {"rss_mb", static_cast<double>(m.rss_bytes) / kMb},
+                   {"map_mb", static_cast<double>(m.map_bytes) / kMb}});
+  out["rss_mb"] = rss;
+  out["peak_rss_mb"] = static_cast<double>(r.peak_rss_bytes) / kMb;
   if (r.merge_metrics) {
     const auto& m = *r.merge_metrics;
     out["merge_vs_ground_truth"] = {
@@ -238,8 +303,9 @@ std::string summary_text(const ReplayReport& r) {
   out.precision(1);
   out << "replay: " << r.frames << " frames";
   if (r.frames_resumed > 0) out << " (+" << r.frames_resumed << " already in the store)";
-  out << " in " << r.wall_s << " s (" << r.frames_per_s << " frames/s" << (r.threaded ? ", threaded" : "")
-      << "); " << r.cells_extracted << " cells extracted ("
+  out << " in " << r.wall_s << " s (" << r.frames_per_s << " frames/s" << (r.threaded ? ", threaded" : "");
+  if (r.rate_hz > 0.0) out << ", input paced at " << r.rate_hz << " Hz";
+  out << "); " << r.cells_extracted << " cells extracted ("
       << 100.0 * r.plane_fraction << " % with a plane)\n";
   out << "  map: " << r.cells_in_map << " cells, " << r.surfaces << " surfaces, "
       << r.fused_cells << " re-observations fused, " << r.surface_merges << " surface merges\n";
@@ -259,12 +325,22 @@ std::string summary_text(const ReplayReport& r) {
         << r.voxel_bytes / 1024.0 << " kB in RAM, .ot " << r.voxel_ot_bytes / 1024.0 << " kB, .bt "
         << r.voxel_bt_bytes / 1024.0 << " kB\n";
   if (r.refine) out << summary_text(*r.refine);
-  out << "  per-stage latency (ms, p50 / p95 / max):";
+  out << "  per-stage latency (ms, p50 / p95 / max; CPU ms p50, page faults per frame):";
   for (const auto& [name, s] : r.stage_latency) {
     out.precision(1);
     out << "\n    " << name << ": " << s.p50_ms << " / " << s.p95_ms << " / " << s.max_ms;
+    for (const auto& [cost_name, c] : r.stage_cost)
+      if (cost_name == name)
+        out << "; CPU " << c.cpu.p50_ms << ", faults " << static_cast<long>(c.minor_faults_mean);
   }
   out << "\n";
+  if (!r.memory.empty()) {
+    constexpr double kMb = 1024.0 * 1024.0;
+    out << "  memory: RSS " << static_cast<double>(r.memory.front().rss_bytes) / kMb << " MB before the first frame, "
+        << static_cast<double>(r.memory.back().rss_bytes) / kMb << " MB after the last (map "
+        << static_cast<double>(r.memory.back().map_bytes) / kMb << " MB), peak "
+        << static_cast<double>(r.peak_rss_bytes) / kMb << " MB\n";
+  }
   return out.str();
 }
 

@@ -4,6 +4,7 @@
 /// with the OctoMap voxel baseline optionally fed the same frames.
 #include <cstddef>
 #include <filesystem>
+#include <functional>
 #include <limits>
 #include <nlohmann/json.hpp>
 #include <optional>
@@ -29,12 +30,33 @@ struct ReplayOptions {
   /// Run the stages as the threaded pipeline (services/pipeline) instead of one after another on
   /// this thread; the map is the same.
   bool threads = false;
-  /// Threaded only: called on the publish thread with every finished frame (e.g. LCM updates).
+  /// Called with every finished frame (e.g. LCM map updates; work.delta filled when
+  /// sinks.want_delta): threaded on the publish thread, single-threaded on the calling thread
+  /// after the store.
   PipelineSinks sinks;
+  /// Input pacing like a camera: frame k of this run is due at start + k / rate_hz and is not
+  /// loaded before (0 = as fast as the stages take frames). End-to-end latency then counts from
+  /// the due time, so a pipeline slower than the rate shows as a growing latency.
+  double rate_hz = 0.0;
+  /// Resident memory is sampled every this many frames (0 = never): ReplayReport::memory.
+  std::size_t memory_sample_every = 10;
+  /// Called once per replayed frame, in frame order, after every stage has run on it, with the
+  /// frame's images, SGM disparity and planecells (labels, dense disparity) still in `work`
+  /// (e.g. `planecell bench` scores them against ground truth). Single-threaded: on the calling
+  /// thread; threaded: on the publish thread (the pipeline then keeps the images until publish).
+  std::function<void(const FrameWork& work)> observe;
 };
 
 /// Parses "A:B", "A:" or ":B" into [A, B) (B exclusive). Throws ConfigError on anything else.
 std::pair<std::size_t, std::size_t> parse_frame_range(const std::string& text);
+
+/// Process memory at one point of a replay.
+struct MemorySample {
+  std::size_t frames = 0;     ///< frames finished in this run when sampled
+  double elapsed_s = 0.0;     ///< since the replay started
+  std::size_t rss_bytes = 0;  ///< resident set size of the process
+  std::size_t map_bytes = 0;  ///< GlobalMap::map_bytes after the last finished frame
+};
 
 struct ReplayReport {
   std::string sequence;
@@ -59,6 +81,12 @@ struct ReplayReport {
   std::optional<eval::MergeMetrics> merge_metrics;
   std::vector<std::pair<std::string, LatencySummary>> stage_latency;  ///< per stage, ms
                                                                       ///< (threaded: + end_to_end)
+  /// Per stage: CPU time of the thread that ran it and first-touch page faults, per frame.
+  std::vector<std::pair<std::string, StageCostSummary>> stage_cost;
+  /// RSS before the first frame, every memory_sample_every frames and after the last one.
+  std::vector<MemorySample> memory;
+  std::size_t peak_rss_bytes = 0;  ///< getrusage ru_maxrss at the end
+  double rate_hz = 0.0;            ///< input pacing (0 = as fast as possible)
   bool threaded = false;
   double frames_per_s = 0.0;  ///< frames / wall_s
   double wall_s = 0.0;

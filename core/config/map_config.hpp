@@ -7,16 +7,29 @@ namespace planecell {
 /// The "variation range" of the circular greedy merging is (max_normal_angle_deg,
 /// max_plane_distance_m, min_colour_similarity): a pair outside it is never merged.
 struct MapConfig {
-  double max_range_m = 40.0;  ///< cells farther than this from the camera are not mapped
+  /// Cells whose vertex centroid lies farther than this from the camera are not mapped. Stereo depth
+  /// noise grows as Z²: at 20 m (KITTI rig) a cell is ~0.1–0.3 m off its true plane, about the step
+  /// between a road and its sidewalk; nearer re-observations of the same area are mapped instead.
+  double max_range_m = 20.0;
   // --- CRF variation range --------------------------------------------------------------------
   double max_normal_angle_deg = 10.0;  ///< max angle between the two surfaces' normals
-  double max_plane_distance_m = 0.08;  ///< max RMS distance of a cell's vertices to the other plane
+  double max_plane_distance_m = 0.08;  ///< smallest plane-distance tolerance d_min (m)
   double min_colour_similarity = 0.3;  ///< min histogram intersection δ ∈ [0, 1]
-  double residual_scale_m = 0.05;      ///< σ: θ' residuals are measured in units of σ (m)
-  /// Stereo depth noise widens the range per cell: a cell with depth uncertainty σ_Z
-  /// (Planecell::depth_sigma_m) may lie max(max_plane_distance_m, k·σ_Z) off the other plane, and
-  /// its normal may differ by max_normal_angle_deg + atan(k·σ_Z / √area) (capped at 2× the angle).
+  /// σ floor (m): θ' residuals are measured in units of it, and a cell's depth noise σ_Z
+  /// (Planecell::depth_sigma_m) counts as at least this much when weighting it (area / σ²).
+  double residual_scale_m = 0.05;
+  /// Stereo depth noise widens the range per label: the less-informed label of a pair may lie
+  /// max(max_plane_distance_m, k·σ_eff) off the other's plane, and its normal may differ by
+  /// max_normal_angle_deg + atan(k·σ_eff / √area) (capped at 2× the angle). σ_eff is the label's
+  /// information-weighted depth noise (LabelState::sigma_m).
   double depth_sigma_factor = 1.0;     ///< k (0 = fixed range, as in the paper)
+  /// The reverse test (the better-informed label on the other's plane) applies when the other
+  /// holds at least this share of its information (comparable labels are tested both ways).
+  double mutual_information_fraction = 0.25;
+  /// Labels with at least this many member cells are mature: two mature labels merge only when
+  /// their normals are within max_normal_angle_deg and the step between their planes at the
+  /// boundary (between the edge's two cells) is within max_plane_distance_m (no widening by noise).
+  int mature_cells = 3;
   double neighbour_gap_m = 0.30;       ///< 3D neighbours: polygons closer than this (m)
   // --- fusion and index -----------------------------------------------------------------------
   double fuse_new_area_fraction = 0.25;  ///< a re-observed cell adding < this share of its own
@@ -38,6 +51,8 @@ void visit_fields(MapConfig& c, Visitor&& visit) {
   visit("min_colour_similarity", c.min_colour_similarity);
   visit("residual_scale_m", c.residual_scale_m);
   visit("depth_sigma_factor", c.depth_sigma_factor);
+  visit("mutual_information_fraction", c.mutual_information_fraction);
+  visit("mature_cells", c.mature_cells);
   visit("neighbour_gap_m", c.neighbour_gap_m);
   visit("fuse_new_area_fraction", c.fuse_new_area_fraction);
   visit("footprint_resolution_m", c.footprint_resolution_m);
@@ -51,7 +66,7 @@ void visit_fields(MapConfig& c, Visitor&& visit) {
 /// OctoMap voxel baseline (paper's 10 cm voxel map).
 struct VoxelConfig {
   double resolution_m = 0.10;
-  double max_range_m = 40.0;
+  double max_range_m = 20.0;  ///< same as MapConfig::max_range_m: both maps see the same points
   bool ray_casting = false;  ///< insertPointCloud with free-space ray casting (slow)
 };
 

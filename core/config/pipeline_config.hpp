@@ -13,6 +13,10 @@ struct PipelineConfig {
   /// time as SGM, so 1 keeps two busy threads on a 2-core machine instead of three.
   int sgm_threads = 1;
   double stats_period_s = 1.0;  ///< how often the daemon publishes map stats (s)
+  /// Freed heap memory the process keeps for the next frame instead of returning it to the kernel
+  /// (MB; glibc trim threshold, see services/pipeline/heap_tuning.hpp; 0 = allocator defaults).
+  /// Saves ~3000 page faults (~8 ms CPU) per 1242×375 frame for a few tens of MB of RSS.
+  int heap_retain_mb = 256;
 };
 
 template <class Visitor>
@@ -20,6 +24,7 @@ void visit_fields(PipelineConfig& c, Visitor&& visit) {
   visit("queue_capacity", c.queue_capacity);
   visit("sgm_threads", c.sgm_threads);
   visit("stats_period_s", c.stats_period_s);
+  visit("heap_retain_mb", c.heap_retain_mb);
 }
 
 /// LCM endpoints. Receivers need a large kernel receive buffer (recv_buf_size in the URL): a

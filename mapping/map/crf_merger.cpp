@@ -108,9 +108,9 @@ std::uint32_t UnionFind::unite(std::uint32_t a, std::uint32_t b) {
   return root;
 }
 
-void PlaneMoments::add_polygon(std::span<const Eigen::Vector3f> vertices, double area_m2) {
-  if (vertices.empty() || !(area_m2 > 0.0)) return;
-  const double w = area_m2 / static_cast<double>(vertices.size());
+void PlaneMoments::add_polygon(std::span<const Eigen::Vector3f> vertices, double total_weight) {
+  if (vertices.empty() || !(total_weight > 0.0)) return;
+  const double w = total_weight / static_cast<double>(vertices.size());
   for (const auto& v : vertices) {
     const Eigen::Vector3d p = v.cast<double>();
     weight += w;
@@ -136,6 +136,31 @@ Plane3 PlaneMoments::fit(const Eigen::Vector3d& orientation) const {
   return plane;
 }
 
+double PlaneMoments::rms_distance_m(const Plane3& plane) const {
+  if (!(weight > 0.0)) return 0.0;
+  const Eigen::Vector3d& n = plane.normal;
+  const double e = plane.offset;
+  const double mean_square = (n.dot(sum_outer * n) + 2.0 * e * n.dot(sum) + e * e * weight) / weight;
+  return std::sqrt(std::max(0.0, mean_square));
+}
+
+double LabelState::sigma_m() const {
+  return moments.weight > 0.0 ? std::sqrt(observed_area_m2 / moments.weight) : 0.0;
+}
+
+LabelState state_of_cell(const Planecell& cell, double area_m2, double sigma_floor_m) {
+  const double sigma = std::max(static_cast<double>(cell.depth_sigma_m), sigma_floor_m);
+  LabelState s;
+  s.plane = cell.plane;
+  s.moments.add_polygon(cell.vertices_m, area_m2 / (sigma * sigma));
+  s.histogram = cell.histogram;
+  s.histogram_weight_m2 = area_m2;
+  s.area_m2 = area_m2;
+  s.observed_area_m2 = area_m2;
+  s.cells = 1;
+  return s;
+}
+
 void fold_label(LabelState& into, const LabelState& from) {
   const double w = into.histogram_weight_m2 + from.histogram_weight_m2;
   if (w > 0.0)
@@ -144,6 +169,8 @@ void fold_label(LabelState& into, const LabelState& from) {
           (into.histogram[q] * into.histogram_weight_m2 + from.histogram[q] * from.histogram_weight_m2) / w);
   into.histogram_weight_m2 = w;
   into.area_m2 += from.area_m2;
+  into.observed_area_m2 += from.observed_area_m2;
+  into.cells += from.cells;
   into.moments.add(from.moments);
   // Refit only when the vertices span a plane (two non-negligible scatter eigenvalues).
   if (into.moments.weight > 0.0) {
@@ -170,25 +197,41 @@ EdgeEvaluation CrfMerger::evaluate(const MergeUnit& a, const LabelState& label_a
   const auto& vb = b.cell->vertices_m;
   const double cos_angle = std::min(1.0, std::abs(label_a.plane.normal.dot(label_b.plane.normal)));
   ev.angle_deg = std::acos(cos_angle) * 180.0 / std::numbers::pi;
-  const double dist_a = rms_distance_m(label_b.plane, va), dist_b = rms_distance_m(label_a.plane, vb);
-  ev.distance_m = std::max(dist_a, dist_b);
-  const double delta_a = colour_similarity(a.cell->histogram, label_b.histogram);
-  const double delta_b = colour_similarity(b.cell->histogram, label_a.histogram);
-  ev.colour_similarity = std::min(delta_a, delta_b);
-  // Variation range widened by each cell's own depth noise (MapConfig::depth_sigma_factor).
+  // Variation range, asymmetric: the less-informed label (lo) on the better-informed one's plane.
+  const bool a_is_hi = label_a.moments.weight >= label_b.moments.weight;
+  const LabelState& hi = a_is_hi ? label_a : label_b;
+  const LabelState& lo = a_is_hi ? label_b : label_a;
   const double k = config_.depth_sigma_factor;
-  auto distance_tolerance = [&](const MergeUnit& u) {
-    return std::max(config_.max_plane_distance_m, k * u.cell->depth_sigma_m);
+  auto distance_tolerance = [&](const LabelState& s) {
+    return std::max(config_.max_plane_distance_m, k * s.sigma_m());
   };
-  auto angle_tolerance = [&](const MergeUnit& u) {
-    const double extent_m = std::sqrt(std::max(u.area_m2, 1e-6));
-    const double widen = std::atan(k * u.cell->depth_sigma_m / extent_m) * 180.0 / std::numbers::pi;
+  auto angle_tolerance = [&](const LabelState& s) {
+    const double extent_m = std::sqrt(std::max(s.observed_area_m2, 1e-6));
+    const double widen = std::atan(k * s.sigma_m() / extent_m) * 180.0 / std::numbers::pi;
     return config_.max_normal_angle_deg + std::min(widen, config_.max_normal_angle_deg);
   };
-  ev.in_range = ev.angle_deg <= std::max(angle_tolerance(a), angle_tolerance(b)) &&
-                dist_a <= distance_tolerance(a) && dist_b <= distance_tolerance(b) &&
-                ev.colour_similarity >= config_.min_colour_similarity;
+  ev.distance_m = lo.moments.rms_distance_m(hi.plane);
+  const auto mature = static_cast<std::uint32_t>(std::max(config_.mature_cells, 1));
+  bool in_range;
+  if (lo.cells >= mature && hi.cells >= mature) {
+    // Both planes are well determined: they must be parallel and continuous where they meet,
+    // i.e. the step between them at the boundary point m (between the edge's two cells) is small.
+    const Eigen::Vector3d m = 0.5 * (vertex_centroid(va) + vertex_centroid(vb));
+    const double sign = hi.plane.normal.dot(lo.plane.normal) < 0.0 ? -1.0 : 1.0;
+    const double step_m = std::abs(hi.plane.signed_distance(m) - sign * lo.plane.signed_distance(m));
+    in_range = step_m <= config_.max_plane_distance_m && ev.angle_deg <= config_.max_normal_angle_deg;
+  } else {
+    in_range = ev.distance_m <= distance_tolerance(lo) && ev.angle_deg <= angle_tolerance(lo);
+    if (lo.moments.weight >= config_.mutual_information_fraction * hi.moments.weight)
+      in_range = in_range && hi.moments.rms_distance_m(lo.plane) <= distance_tolerance(hi) &&
+                 ev.angle_deg <= angle_tolerance(hi);
+  }
+  ev.colour_similarity = colour_similarity(lo.histogram, hi.histogram);
+  ev.in_range = in_range && ev.colour_similarity >= config_.min_colour_similarity;
+  // Energy gained (the greedy's visiting order): δ + φ + ψ of the edge's two cells.
   const double sigma = config_.residual_scale_m;
+  const double delta_a = colour_similarity(a.cell->histogram, label_b.histogram);
+  const double delta_b = colour_similarity(b.cell->histogram, label_a.histogram);
   const double phi = pose_potential(a.area_m2, b.area_m2, plane_residual(a.cell->plane, vb, sigma),
                                     plane_residual(b.cell->plane, va, sigma));
   const Eigen::Vector3d m = boundary_point(va, vb);

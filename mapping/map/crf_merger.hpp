@@ -56,28 +56,39 @@ class UnionFind {
   std::unordered_map<std::uint32_t, std::uint32_t> parent_;
 };
 
-/// Weighted second moments of the vertices behind a surface: the plane is their least-squares fit.
+/// Weighted second moments of the vertices behind a label: the plane is their least-squares fit.
+/// The map weights each cell by its information w = area / σ² (σ the cell's depth noise, floored
+/// at MapConfig::residual_scale_m), so a far, noisy cell barely moves a precise surface's plane.
 struct PlaneMoments {
   double weight = 0.0;                                   ///< Σ w
   Eigen::Vector3d sum = Eigen::Vector3d::Zero();         ///< Σ w p
   Eigen::Matrix3d sum_outer = Eigen::Matrix3d::Zero();   ///< Σ w p pᵀ
 
-  /// Adds a polygon with total weight area_m2 spread evenly over its vertices.
-  void add_polygon(std::span<const Eigen::Vector3f> vertices, double area_m2);
+  /// Adds a polygon with total weight `weight` spread evenly over its vertices.
+  void add_polygon(std::span<const Eigen::Vector3f> vertices, double weight);
   void add(const PlaneMoments& other);
   /// Least-squares plane: normal = smallest eigenvector of the weighted scatter Σw(p−p̄)(p−p̄)ᵀ,
   /// oriented like `orientation` (n·orientation ≥ 0), offset e = −n·p̄.
   Plane3 fit(const Eigen::Vector3d& orientation) const;
+  /// Weighted RMS distance of the moments' points to `plane`, exactly from the moments:
+  ///   E_w[(n·p + e)²] = (nᵀ(Σ w p pᵀ)n + 2e·n·(Σ w p) + e²·Σ w) / Σ w.
+  double rms_distance_m(const Plane3& plane) const;
   bool operator==(const PlaneMoments&) const = default;
 };
 
 /// State of one label during merging (a surface of the map or a fresh label of a new cell).
 struct LabelState {
   Plane3 plane;
-  PlaneMoments moments;
+  PlaneMoments moments;         ///< information-weighted (moments.weight = Σ area_i / σ_i²)
   ColourHistogram histogram{};  ///< weighted mean of the members' histograms
   double histogram_weight_m2 = 0.0;
-  double area_m2 = 0.0;
+  double area_m2 = 0.0;           ///< area the label covers (a surface: its footprint)
+  double observed_area_m2 = 0.0;  ///< Σ area_i of every member observation
+  std::uint32_t cells = 0;        ///< member observations (a mature label has ≥ MapConfig::mature_cells)
+
+  /// Effective depth noise of the label, σ_eff = √(Σ area_i / Σ (area_i / σ_i²)) (m): the
+  /// area-weighted harmonic mean of the members' σ², dominated by its most precise cells.
+  double sigma_m() const;
 };
 
 /// A planecell taking part in a merge, with its current label.
@@ -98,7 +109,8 @@ struct MergeEdge {
 struct EdgeEvaluation {
   bool in_range = false;
   double angle_deg = 0.0;         ///< between the two labels' plane normals
-  double distance_m = 0.0;        ///< max of the RMS vertex distances to the other label's plane
+  double distance_m = 0.0;        ///< RMS distance of the less-informed label's points to the
+                                  ///< better-informed label's plane
   double colour_similarity = 0.0; ///< min of the two cell-vs-surface δ
   double gain = 0.0;              ///< δ_a + δ_b + φ + ψ: energy gained by giving both one label
 };
@@ -108,7 +120,16 @@ class CrfMerger {
  public:
   explicit CrfMerger(const MapConfig& config);
 
-  /// Evaluates an edge under the current labels' states.
+  /// Evaluates an edge under the current labels' states. The variation range is asymmetric: the
+  /// label with less information (lo) must lie on the plane of the one with more (hi):
+  ///   rms_w(lo → hi.plane) ≤ max(max_plane_distance_m, k·σ_eff(lo)),
+  ///   ∠(n_lo, n_hi) ≤ max_normal_angle_deg + min(max_normal_angle_deg, atan(k·σ_eff(lo)/√area_lo)),
+  /// and, when lo holds at least mutual_information_fraction of hi's information, the same with
+  /// the roles swapped; colour δ(h_lo, h_hi) ≥ min_colour_similarity. Two mature labels (both
+  /// with ≥ mature_cells members) must be parallel within max_normal_angle_deg and continuous at
+  /// their boundary: the step |d_hi(m) − s·d_lo(m)| between the planes at the midpoint m of the
+  /// edge's two cell centroids ≤ max_plane_distance_m, never widened by noise. One noisy cell can
+  /// join a surface, but cannot bridge two surfaces that are not on one plane themselves.
   EdgeEvaluation evaluate(const MergeUnit& a, const LabelState& label_a, const MergeUnit& b,
                           const LabelState& label_b, double boundary_m) const;
 
@@ -126,6 +147,10 @@ class CrfMerger {
  private:
   MapConfig config_;
 };
+
+/// The one-cell label of a world-frame cell of area `area_m2`: moments weighted by area / σ² with
+/// σ = max(cell.depth_sigma_m, sigma_floor_m).
+LabelState state_of_cell(const Planecell& cell, double area_m2, double sigma_floor_m);
 
 /// Folds `from` into `into`: moments and histograms add (area-weighted), plane refitted.
 void fold_label(LabelState& into, const LabelState& from);

@@ -41,8 +41,7 @@ const FootprintTile* Footprint::find_tile(std::int32_t s, std::int32_t t) const 
   return it != tiles_.end() && it->s == s && it->t == t ? &*it : nullptr;
 }
 
-double Footprint::add_polygon(const Polygon2& polygon) {
-  const auto& ring = polygon.outer();
+double Footprint::add_polygon(std::span<const Eigen::Vector2d> ring) {
   if (ring.size() < 3) return 0.0;
   double lo_s = std::numeric_limits<double>::infinity(), lo_t = lo_s, hi_s = -lo_s, hi_t = -lo_s;
   for (const auto& p : ring) {

@@ -28,9 +28,10 @@ class Footprint {
   /// Throws ConfigError unless resolution_m is in (0, 10].
   explicit Footprint(double resolution_m = 0.1);
 
-  /// Marks the bits whose centres lie inside `polygon` (basis coordinates, m). Returns the area
-  /// newly covered: (bits set now that were clear before) · res² (m²).
-  double add_polygon(const Polygon2& polygon);
+  /// Marks the bits whose centres lie inside the polygon `ring` (basis coordinates (s, t) in m,
+  /// either orientation, closing vertex optional). Returns the area newly covered:
+  /// (bits set now that were clear before) · res² (m²).
+  double add_polygon(std::span<const Eigen::Vector2d> ring);
   /// Marks the bit containing (s, t); returns true if it was clear.
   bool add_point(double s, double t);
 

@@ -1,5 +1,7 @@
 #include "mapping/map/geometry.hpp"
 
+#include "mapping/map/polygon2.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -41,6 +43,13 @@ Eigen::Vector3d vertex_centroid(std::span<const Eigen::Vector3f> vertices) {
   Eigen::Vector3d sum = Eigen::Vector3d::Zero();
   for (const auto& v : vertices) sum += v.cast<double>();
   return vertices.empty() ? sum : Eigen::Vector3d(sum / static_cast<double>(vertices.size()));
+}
+
+std::vector<Eigen::Vector2d> project_to_basis(std::span<const Eigen::Vector3f> vertices, const PlaneBasis& basis) {
+  std::vector<Eigen::Vector2d> out;
+  out.reserve(vertices.size());
+  for (const auto& v : vertices) out.push_back(basis.to_2d(v.cast<double>()));
+  return out;
 }
 
 Polygon2 to_polygon2(std::span<const Eigen::Vector3f> vertices, const PlaneBasis& basis) {

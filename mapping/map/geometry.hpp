@@ -1,12 +1,8 @@
 #pragma once
-/// Geometry of planar polygons in 3D for the global map: plane bases, areas, distances, bounds,
-/// and the 2D polygon types (Boost.Geometry) used for footprint unions on a surface's plane.
+/// Geometry of planar polygons in 3D for the global map: plane bases, areas, distances, bounds.
+/// (Boost.Geometry's 2D types stay in mapping/map/polygon2.hpp, out of this widely included header.)
 #include <Eigen/Core>
 #include <Eigen/Geometry>
-#include <boost/geometry.hpp>
-#include <boost/geometry/geometries/point_xy.hpp>
-#include <boost/geometry/geometries/polygon.hpp>
-#include <boost/geometry/geometries/multi_polygon.hpp>
 #include <limits>
 #include <span>
 #include <vector>
@@ -14,10 +10,6 @@
 #include "core/plane.hpp"
 
 namespace planecell::map {
-
-using Point2 = boost::geometry::model::d2::point_xy<double>;
-using Polygon2 = boost::geometry::model::polygon<Point2>;  ///< clockwise, closed
-using MultiPolygon2 = boost::geometry::model::multi_polygon<Polygon2>;
 
 /// Axis-aligned box in 3D (m). Empty when min > max.
 struct Aabb {
@@ -69,8 +61,8 @@ double polygon_area_m2(std::span<const Eigen::Vector3f> vertices);
 /// Mean of the vertices (m).
 Eigen::Vector3d vertex_centroid(std::span<const Eigen::Vector3f> vertices);
 
-/// The polygon projected orthogonally into `basis`, corrected (closed, clockwise).
-Polygon2 to_polygon2(std::span<const Eigen::Vector3f> vertices, const PlaneBasis& basis);
+/// The vertices projected orthogonally into `basis`: (s, t) = basis.to_2d(v), same order.
+std::vector<Eigen::Vector2d> project_to_basis(std::span<const Eigen::Vector3f> vertices, const PlaneBasis& basis);
 
 /// Distance (m) of `point` to the planar polygon `vertices` lying on `plane`:
 ///   the paper's point-to-plane distance |n·p + e| when p's projection onto the plane falls inside

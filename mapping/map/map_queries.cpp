@@ -6,6 +6,7 @@
 
 #include "core/error.hpp"
 #include "mapping/map/global_map.hpp"
+#include "mapping/map/polygon2.hpp"
 
 namespace planecell::map {
 namespace bg = boost::geometry;

@@ -3,31 +3,33 @@
 /// coarse to fine down to single pixels; segments are kept connected.
 #include <algorithm>
 #include <array>
+#include <bit>
 #include <cmath>
+#include <cstring>
 
 #include "mapping/planecell/superpixel_state.hpp"
 
 namespace planecell::extraction::detail {
 namespace {
 
-/// True when removing the centre of a 3×3 neighbourhood from segment `label` keeps the segment's
-/// pixels in that neighbourhood 4-connected. `ring` lists the 8 neighbours clockwise from the
-/// top-left (NW, N, NE, E, SE, S, SW, W). Consecutive ring entries are 4-adjacent, so the
-/// neighbours of `label` form as many local components as there are circular runs that contain
-/// an edge neighbour (N, E, S, W).
-bool keeps_connected(const std::array<int, 8>& ring, int label) {
-  int first_gap = -1;
-  for (int k = 0; k < 8; ++k)
-    if (ring[k] != label) {
-      first_gap = k;
-      break;
-    }
-  if (first_gap < 0) return true;  // surrounded by its own segment (interior)
+/// The 8 neighbours of a pixel or tile, clockwise from the top-left: NW, N, NE, E, SE, S, SW, W.
+/// A ring mask has bit k set when neighbour k carries the centre's label.
+constexpr int kRingSize = 8;
+
+/// True when removing the centre of a 3×3 neighbourhood from its segment keeps the segment's
+/// pixels in that neighbourhood 4-connected, for the ring mask `mask`. Consecutive ring entries
+/// are 4-adjacent, so the segment's neighbours form as many local components as there are
+/// circular runs of set bits that contain an edge neighbour (N, E, S, W = odd bits); the centre
+/// may leave when there is at most one such run.
+constexpr bool ring_keeps_connected(unsigned mask) {
+  if (mask == 0xFFu) return true;  // surrounded by its own segment (interior)
+  int first_gap = 0;
+  while (mask & (1u << first_gap)) ++first_gap;
   int runs_with_edge = 0;
   bool in_run = false, run_has_edge = false;
-  for (int step = 1; step <= 8; ++step) {
-    const int k = (first_gap + step) % 8;
-    if (ring[k] == label) {
+  for (int step = 1; step <= kRingSize; ++step) {
+    const int k = (first_gap + step) % kRingSize;
+    if (mask & (1u << k)) {
       if (!in_run) {
         in_run = true;
         run_has_edge = false;
@@ -42,93 +44,192 @@ bool keeps_connected(const std::array<int, 8>& ring, int label) {
   return runs_with_edge <= 1;
 }
 
-/// Label of every b×b tile when all its pixels share one, else −1.
-std::vector<int> tile_labels(const SuperpixelState& s, int b, int tiles_x, int tiles_y) {
-  std::vector<int> out(static_cast<std::size_t>(tiles_x) * tiles_y);
-  for (int ty = 0; ty < tiles_y; ++ty) {
-    for (int tx = 0; tx < tiles_x; ++tx) {
-      const int u0 = tx * b, v0 = ty * b;
-      const int u1 = std::min(u0 + b, s.width), v1 = std::min(v0 + b, s.height);
-      const int l = s.labels[s.index(u0, v0)];
-      bool same = true;
-      for (int v = v0; v < v1 && same; ++v) {
-        const std::int32_t* row = s.labels.data() + v * s.width;
-        for (int u = u0; u < u1; ++u)
-          if (row[u] != l) {
-            same = false;
-            break;
-          }
-      }
-      out[ty * tiles_x + tx] = same ? l : -1;
-    }
-  }
-  return out;
+/// ring_keeps_connected for all 256 ring masks (a lookup replaces the run count in the sweeps).
+constexpr std::array<bool, 256> kRingKeepsConnected = [] {
+  std::array<bool, 256> table{};
+  for (unsigned m = 0; m < 256; ++m) table[m] = ring_keeps_connected(m);
+  return table;
+}();
+
+/// Ring mask of `label` over the 8 neighbour labels (ring order, see kRingSize).
+inline unsigned ring_mask(const std::array<int, kRingSize>& ring, int label) {
+  unsigned mask = 0;
+  for (int k = 0; k < kRingSize; ++k) mask |= static_cast<unsigned>(ring[k] == label) << k;
+  return mask;
 }
 
-/// Histogram, centre and mean disparity of the pixel rectangle [u0,u1)×[v0,v1).
-void gather_block(const SuperpixelState& s, int u0, int v0, int u1, int v1,
-                  std::array<std::uint16_t, kEnergyBins>& scratch, BlockData& b) {
-  b.distinct_bins = 0;
-  for (int v = v0; v < v1; ++v) {
-    const std::uint8_t* row = s.bins.data() + v * s.width;
-    for (int u = u0; u < u1; ++u) {
-      const std::uint8_t q = row[u];
-      if (scratch[q]++ == 0) b.bin_ids[b.distinct_bins++] = q;
+/// The tiles of one block level: the label of every b×b tile when all its pixels share one,
+/// else −1, on a grid padded by one tile of −2 (outside the image) on each side, so that the 8
+/// neighbours of every tile are plain offsets. Each tile's colour histogram is gathered on first
+/// use and kept: a tile's pixels never change, only the segment they belong to.
+struct TileGrid {
+  int b = 0;
+  int tiles_x = 0, tiles_y = 0;
+  int stride = 0;  ///< tiles_x + 2
+  std::vector<int> label;
+  int index(int tx, int ty) const { return (ty + 1) * stride + tx + 1; }
+
+  std::vector<std::int32_t> histogram_first;  ///< per tile t = ty·tiles_x + tx; −1 = not yet
+  std::vector<std::uint8_t> histogram_size;   ///< distinct bins of each gathered tile
+  std::vector<std::uint8_t> bin_ids;          ///< all gathered histograms, one after another
+  std::vector<std::uint16_t> bin_counts;
+};
+
+/// Label of the tile [u0,u1)×[v0,v1) when all its pixels share one, else −1.
+int uniform_label(const SuperpixelState& s, int u0, int v0, int u1, int v1) {
+  const int l = s.labels[s.index(u0, v0)];
+  int differs = 0;  // no early exit within a row: the comparisons vectorise
+  for (int v = v0; v < v1 && differs == 0; ++v) {
+    const std::int32_t* row = s.labels.data() + static_cast<std::size_t>(v) * s.width;
+    for (int u = u0; u < u1; ++u) differs |= row[u] ^ l;
+  }
+  return differs == 0 ? l : -1;
+}
+
+/// Labels of all tiles read from the pixels, one row of tiles at a time: a tile is uniform when
+/// none of its rows changes label inside it and each row starts with the label of the tile's
+/// top-left pixel. The label changes along a row are flagged branch-free (vectorised) first.
+void read_tile_labels(const SuperpixelState& s, TileGrid& g) {
+  const int w = s.width, b = g.b;
+  std::vector<std::uint8_t> change(w + 8, 0);  ///< 1 where the label differs from the left one
+  std::vector<int> first(g.tiles_x);
+  std::vector<std::uint8_t> mixed(g.tiles_x);
+  for (int ty = 0; ty < g.tiles_y; ++ty) {
+    const int v0 = ty * b, v1 = std::min(v0 + b, s.height);
+    const std::int32_t* top = s.labels.data() + static_cast<std::size_t>(v0) * w;
+    for (int tx = 0; tx < g.tiles_x; ++tx) {
+      first[tx] = top[tx * b];
+      mixed[tx] = 0;
+    }
+    for (int v = v0; v < v1; ++v) {
+      const std::int32_t* row = s.labels.data() + static_cast<std::size_t>(v) * w;
+      for (int u = 1; u < w; ++u) change[u] = static_cast<std::uint8_t>(row[u] != row[u - 1]);
+      for (int tx = 0; tx < g.tiles_x; ++tx) {
+        const int u0 = tx * b, u1 = std::min(u0 + b, w);
+        bool any = row[u0] != first[tx];
+        for (int u = u0 + 1; u < u1; u += 8) {  // eight change flags per 64-bit word
+          std::uint64_t eight;
+          std::memcpy(&eight, change.data() + u, 8);
+          const int valid = u1 - u;
+          if (valid < 8) eight &= (std::uint64_t{1} << (8 * valid)) - 1;
+          any |= eight != 0;
+        }
+        mixed[tx] |= static_cast<std::uint8_t>(any);
+      }
+    }
+    for (int tx = 0; tx < g.tiles_x; ++tx) g.label[g.index(tx, ty)] = mixed[tx] ? -1 : first[tx];
+  }
+}
+
+/// The tiles of size b. With the grid of the level above (tiles of 2b, which nest four tiles of
+/// size b each, and which block moves keep uniform), a tile inside a uniform parent takes its
+/// label and only the tiles of mixed parents are read pixel by pixel.
+TileGrid make_tile_grid(const SuperpixelState& s, int b, const TileGrid* parent) {
+  TileGrid g;
+  g.b = b;
+  g.tiles_x = (s.width + b - 1) / b;
+  g.tiles_y = (s.height + b - 1) / b;
+  g.stride = g.tiles_x + 2;
+  g.label.assign(static_cast<std::size_t>(g.stride) * (g.tiles_y + 2), -2);
+  g.histogram_first.assign(static_cast<std::size_t>(g.tiles_x) * g.tiles_y, -1);
+  g.histogram_size.assign(static_cast<std::size_t>(g.tiles_x) * g.tiles_y, 0);
+  if (parent == nullptr || parent->b != 2 * b) {
+    read_tile_labels(s, g);
+    return g;
+  }
+  for (int ty = 0; ty < g.tiles_y; ++ty) {
+    const int v0 = ty * b, v1 = std::min(v0 + b, s.height);
+    for (int tx = 0; tx < g.tiles_x; ++tx) {
+      const int inherited = parent->label[parent->index(tx / 2, ty / 2)];
+      const int u0 = tx * b, u1 = std::min(u0 + b, s.width);
+      g.label[g.index(tx, ty)] = inherited >= 0 ? inherited : uniform_label(s, u0, v0, u1, v1);
     }
   }
-  for (int k = 0; k < b.distinct_bins; ++k) {
-    b.bin_counts[k] = scratch[b.bin_ids[k]];
-    scratch[b.bin_ids[k]] = 0;
+  return g;
+}
+
+/// Block b = tile t = [u0,u1)×[v0,v1) of the grid: its histogram (gathered into the grid on
+/// first use), size and centre, and its mean valid disparity d̄_b when the depth term is on.
+BlockData gather_block(const SuperpixelState& s, TileGrid& g, int t, int u0, int v0, int u1, int v1,
+                       std::array<std::uint16_t, kEnergyBins>& scratch) {
+  if (g.histogram_first[t] < 0) {
+    const std::size_t first = g.bin_ids.size();
+    for (int v = v0; v < v1; ++v) {
+      const std::uint8_t* row = s.bins.data() + static_cast<std::size_t>(v) * s.width;
+      for (int u = u0; u < u1; ++u) {
+        const std::uint8_t q = row[u];
+        if (scratch[q]++ == 0) g.bin_ids.push_back(q);
+      }
+    }
+    for (std::size_t k = first; k < g.bin_ids.size(); ++k) {
+      g.bin_counts.push_back(scratch[g.bin_ids[k]]);
+      scratch[g.bin_ids[k]] = 0;
+    }
+    g.histogram_first[t] = static_cast<std::int32_t>(first);
+    g.histogram_size[t] = static_cast<std::uint8_t>(g.bin_ids.size() - first);
   }
+  BlockData b;
+  b.bin_ids = g.bin_ids.data() + g.histogram_first[t];
+  b.bin_counts = g.bin_counts.data() + g.histogram_first[t];
+  b.distinct_bins = g.histogram_size[t];
   b.pixels = (u1 - u0) * (v1 - v0);
   b.centre_u = 0.5 * (u0 + u1 - 1);
   b.centre_v = 0.5 * (v0 + v1 - 1);
+  if (!s.weights.depth_enabled) return b;
+  double sum = 0.0;
   int valid = 0;
-  b.mean_disparity = s.mean_disparity(u0, v0, u1, v1, &valid);
-  b.has_disparity = 2 * valid >= b.pixels;  // d̄_b only when half of the block is matched
+  for (int v = v0; v < v1; ++v) {
+    const float* row = s.disparity.data() + static_cast<std::size_t>(v) * s.width;
+    for (int u = u0; u < u1; ++u)
+      if (!std::isnan(row[u])) {
+        sum += row[u];
+        ++valid;
+      }
+  }
+  b.has_disparity = valid > 0 && 2 * valid >= b.pixels;  // d̄_b when half the block is matched
+  b.mean_disparity = valid > 0 ? sum / valid : 0.0;
+  return b;
 }
 
-
-/// The label the block should carry: its own, or the distinct 4-neighbour label whose block score
-/// (E's change when the block joins it, see block_score) is strictly the highest. Ties keep the
-/// current label, so a move always increases E.
-int best_neighbour_label(const SuperpixelState& s, int label, const std::array<int, 4>& neighbours,
-                         const BlockData& block) {
-  double best = block_score(s, label, block);
+/// The label the block should carry: its own, or the distinct 4-neighbour label (W, E, N, S;
+/// negative = none) whose block score (E's change when the block joins it, see block_score) is
+/// strictly the highest. Ties keep the current label, so a move always increases E. Inlined
+/// into each sweep so that the score is too.
+template <class Score>
+[[gnu::always_inline]] inline int best_neighbour_label(int label,
+                                                       const std::array<int, 4>& neighbours,
+                                                       Score&& score) {
+  double best = score(label);
   int best_label = label;
-  for (int k = 0; k < 4; ++k) {
-    const int nl = neighbours[k];
-    if (nl < 0 || nl == label) continue;
-    bool seen = false;
-    for (int j = 0; j < k; ++j) seen |= (neighbours[j] == nl);
-    if (seen) continue;
-    const double score = block_score(s, nl, block);
-    if (score > best + 1e-12) {
-      best = score;
-      best_label = nl;
+  auto consider = [&](int candidate) {
+    const double value = score(candidate);
+    if (value > best + 1e-12) {
+      best = value;
+      best_label = candidate;
     }
-  }
+  };
+  const int w = neighbours[0], e = neighbours[1], n = neighbours[2], s = neighbours[3];
+  if (w >= 0 && w != label) consider(w);
+  if (e >= 0 && e != label && e != w) consider(e);
+  if (n >= 0 && n != label && n != w && n != e) consider(n);
+  if (s >= 0 && s != label && s != w && s != e && s != n) consider(s);
   return best_label;
 }
 
 /// One sweep of b×b blocks (b ≥ 2) over the tile grid; returns the number of moves.
-int block_sweep(SuperpixelState& s, int b, std::vector<int>& tiles, int tiles_x, int tiles_y,
-                bool backwards) {
+int block_sweep(SuperpixelState& s, TileGrid& g, bool backwards) {
   std::array<std::uint16_t, kEnergyBins> scratch{};
-  BlockData block;
   int moves = 0;
-  auto tile_at = [&](int tx, int ty) {
-    if (tx < 0 || ty < 0 || tx >= tiles_x || ty >= tiles_y) return -2;
-    return tiles[ty * tiles_x + tx];
-  };
-  const int n = tiles_x * tiles_y;
+  const int b = g.b, stride = g.stride;
+  const int n = g.tiles_x * g.tiles_y;
   for (int step = 0; step < n; ++step) {
     const int t = backwards ? n - 1 - step : step;
-    const int tx = t % tiles_x, ty = t / tiles_x;
-    const int label = tiles[t];
+    const int tx = t % g.tiles_x, ty = t / g.tiles_x;
+    const int p = g.index(tx, ty);
+    const int* tile = g.label.data() + p;
+    const int label = tile[0];
     if (label < 0) continue;
-    const std::array<int, 4> neighbours = {tile_at(tx - 1, ty), tile_at(tx + 1, ty),
-                                           tile_at(tx, ty - 1), tile_at(tx, ty + 1)};
+    const std::array<int, 4> neighbours = {tile[-1], tile[1], tile[-stride], tile[stride]};
     bool boundary = false;
     for (int nl : neighbours) boundary |= (nl >= 0 && nl != label);
     if (!boundary) continue;
@@ -136,62 +237,135 @@ int block_sweep(SuperpixelState& s, int b, std::vector<int>& tiles, int tiles_x,
     const int u1 = std::min(u0 + b, s.width), v1 = std::min(v0 + b, s.height);
     const int pixels = (u1 - u0) * (v1 - v0);
     if (s.size[label] - pixels < pixels) continue;  // never empty a segment
-    const std::array<int, 8> ring = {tile_at(tx - 1, ty - 1), tile_at(tx, ty - 1),
-                                     tile_at(tx + 1, ty - 1), tile_at(tx + 1, ty),
-                                     tile_at(tx + 1, ty + 1), tile_at(tx, ty + 1),
-                                     tile_at(tx - 1, ty + 1), tile_at(tx - 1, ty)};
-    if (!keeps_connected(ring, label)) continue;
-    gather_block(s, u0, v0, u1, v1, scratch, block);
-    const int best_label = best_neighbour_label(s, label, neighbours, block);
+    const std::array<int, kRingSize> ring = {tile[-stride - 1], tile[-stride],    tile[-stride + 1],
+                                             tile[1],           tile[stride + 1], tile[stride],
+                                             tile[stride - 1],  tile[-1]};
+    if (!kRingKeepsConnected[ring_mask(ring, label)]) continue;
+    const BlockData block = gather_block(s, g, t, u0, v0, u1, v1, scratch);
+    const int best_label = best_neighbour_label(
+        label, neighbours, [&](int segment) { return block_score(s, segment, block); });
     if (best_label != label) {
       move_block(s, u0, v0, u1, v1, label, best_label);
-      tiles[t] = best_label;
+      g.label[p] = best_label;
       ++moves;
     }
   }
   return moves;
 }
 
-/// One sweep of single boundary pixels; returns the number of moves.
-int pixel_sweep(SuperpixelState& s, bool backwards) {
+/// Marks (1) the pixels of row v that may lie on a segment boundary (a 4-neighbour differs) or
+/// on the image border; 0 elsewhere. Branch-free, so it vectorises.
+void mark_boundary_candidates(const SuperpixelState& s, int v, std::uint8_t* mark) {
+  const int w = s.width;
+  if (v == 0 || v + 1 == s.height || w < 3) {
+    std::memset(mark, 1, static_cast<std::size_t>(w));
+    return;
+  }
+  const std::int32_t* row = s.labels.data() + static_cast<std::size_t>(v) * w;
+  const std::int32_t* up = row - w;
+  const std::int32_t* down = row + w;
+  mark[0] = mark[w - 1] = 1;
+  for (int u = 1; u + 1 < w; ++u) {
+    const std::int32_t l = row[u];
+    mark[u] = static_cast<std::uint8_t>(
+        ((row[u - 1] ^ l) | (row[u + 1] ^ l) | (up[u] ^ l) | (down[u] ^ l)) != 0);
+  }
+}
+
+/// Moves pixel (u, v) from `label` to the best of its 4-neighbour segments `neighbours` (W, E,
+/// N, S; −2 outside the image) when that raises E (paper §4.5 at the pixel level: the block is
+/// the pixel), provided it lies on a boundary, is not its segment's last pixel and leaving keeps
+/// the segment locally connected (ring mask `mask`). Returns true when it moved.
+[[gnu::always_inline]] inline bool try_move_pixel(SuperpixelState& s, int u, int v, int label,
+                                                  const std::array<int, 4>& neighbours,
+                                                  unsigned mask, bool boundary) {
+  if (!boundary || s.size[label] <= 1 || !kRingKeepsConnected[mask]) return false;
+  const int i = s.index(u, v);
+  const int bin = s.bins[i];
+  const float d = s.disparity[i];
+  const int best_label = best_neighbour_label(
+      label, neighbours, [&](int segment) { return pixel_score(s, segment, bin, u, v, d); });
+  if (best_label == label) return false;
+  move_pixel(s, u, v, label, best_label);
+  return true;
+}
+
+/// Pixel (u, v) on the image border: neighbours outside the image are −2.
+bool try_move_border_pixel(SuperpixelState& s, int u, int v) {
   const int w = s.width, h = s.height;
   const std::int32_t* lab = s.labels.data();
-  auto at = [&](int u, int v) { return (u < 0 || v < 0 || u >= w || v >= h) ? -2 : lab[v * w + u]; };
-  BlockData px;
-  px.distinct_bins = 1;
-  px.bin_counts[0] = 1;
-  px.pixels = 1;
+  auto at = [&](int x, int y) {
+    return (x < 0 || y < 0 || x >= w || y >= h) ? -2 : lab[y * w + x];
+  };
+  const int label = lab[v * w + u];
+  const std::array<int, 4> neighbours = {at(u - 1, v), at(u + 1, v), at(u, v - 1), at(u, v + 1)};
+  const std::array<int, kRingSize> ring = {at(u - 1, v - 1), neighbours[2],    at(u + 1, v - 1),
+                                           neighbours[1],    at(u + 1, v + 1), neighbours[3],
+                                           at(u - 1, v + 1), neighbours[0]};
+  bool boundary = false;
+  for (int nl : neighbours) boundary |= (nl >= 0 && nl != label);
+  return try_move_pixel(s, u, v, label, neighbours, ring_mask(ring, label), boundary);
+}
+
+/// Interior pixel (u, v): all 8 neighbours are inside the image, so it is a boundary pixel
+/// exactly when one of the edge bits (N, E, S, W = odd bits) of its ring mask is clear.
+bool try_move_interior_pixel(SuperpixelState& s, int u, int v) {
+  const int w = s.width;
+  const std::int32_t* c = s.labels.data() + s.index(u, v);
+  const int label = c[0];
+  const std::array<int, 4> neighbours = {c[-1], c[1], c[-w], c[w]};
+  const unsigned mask =
+      static_cast<unsigned>(c[-w - 1] == label) | static_cast<unsigned>(c[-w] == label) << 1 |
+      static_cast<unsigned>(c[-w + 1] == label) << 2 | static_cast<unsigned>(c[1] == label) << 3 |
+      static_cast<unsigned>(c[w + 1] == label) << 4 | static_cast<unsigned>(c[w] == label) << 5 |
+      static_cast<unsigned>(c[w - 1] == label) << 6 | static_cast<unsigned>(c[-1] == label) << 7;
+  constexpr unsigned kEdgeBits = 0xAAu;
+  return try_move_pixel(s, u, v, label, neighbours, mask, (mask & kEdgeBits) != kEdgeBits);
+}
+
+/// One sweep of single boundary pixels in raster order (or reversed); returns the number of
+/// moves. Each row's boundary candidates are marked before it is swept and visited eight marks
+/// (one 64-bit word) at a time. A move changes only its own pixel, so within the row only the
+/// next pixel in sweep order can have become a boundary pixel since: after a move it is
+/// examined whether marked or not.
+int pixel_sweep(SuperpixelState& s, bool backwards) {
+  const int w = s.width, h = s.height;
+  const int words = (w + 7) / 8;
+  std::vector<std::uint8_t> mark(static_cast<std::size_t>(words) * 8, 0);  // zero past w
   int moves = 0;
   for (int row = 0; row < h; ++row) {
     const int v = backwards ? h - 1 - row : row;
-    const bool interior_row = v > 0 && v + 1 < h;
-    for (int col = 0; col < w; ++col) {
-      const int u = backwards ? w - 1 - col : col;
-      const int i = v * w + u;
-      const int label = lab[i];
-      // Fast rejection of interior pixels (the vast majority).
-      if (interior_row && u > 0 && u + 1 < w && lab[i - 1] == label && lab[i + 1] == label &&
-          lab[i - w] == label && lab[i + w] == label)
-        continue;
-      const std::array<int, 4> neighbours = {at(u - 1, v), at(u + 1, v), at(u, v - 1),
-                                             at(u, v + 1)};
-      bool boundary = false;
-      for (int nl : neighbours) boundary |= (nl >= 0 && nl != label);
-      if (!boundary || s.size[label] <= 1) continue;
-      const std::array<int, 8> ring = {at(u - 1, v - 1), neighbours[2], at(u + 1, v - 1),
-                                       neighbours[1],    at(u + 1, v + 1), neighbours[3],
-                                       at(u - 1, v + 1), neighbours[0]};
-      if (!keeps_connected(ring, label)) continue;
-      px.bin_ids[0] = s.bins[i];
-      px.centre_u = u;
-      px.centre_v = v;
-      const float d = s.disparity[i];
-      px.has_disparity = !std::isnan(d);
-      px.mean_disparity = px.has_disparity ? d : 0.0;
-      const int best_label = best_neighbour_label(s, label, neighbours, px);
-      if (best_label != label) {
-        move_block(s, u, v, u + 1, v + 1, label, best_label);
-        ++moves;
+    const bool border_row = v == 0 || v + 1 == h;
+    mark_boundary_candidates(s, v, mark.data());
+    auto evaluate = [&](int u) {
+      const bool moved = border_row || u == 0 || u + 1 == w ? try_move_border_pixel(s, u, v)
+                                                            : try_move_interior_pixel(s, u, v);
+      moves += moved;
+      return moved;
+    };
+    std::uint64_t carry = 0;  // the first (or last) pixel of the next word, after a move
+    for (int step = 0; step < words; ++step) {
+      const int base = 8 * (backwards ? words - 1 - step : step);
+      std::uint64_t word;
+      std::memcpy(&word, mark.data() + base, 8);  // byte k = mark of pixel base + k
+      word |= carry;
+      carry = 0;
+      while (word != 0) {
+        const int bit = backwards ? 63 - std::countl_zero(word) : std::countr_zero(word);
+        word &= ~(std::uint64_t{1} << bit);
+        const int k = bit / 8, u = base + k;
+        if (!evaluate(u)) continue;
+        if (!backwards && u + 1 < w) {
+          if (k < 7)
+            word |= std::uint64_t{1} << (bit + 8);
+          else
+            carry = 1;
+        } else if (backwards && u > 0) {
+          if (k > 0)
+            word |= std::uint64_t{1} << (bit - 8);
+          else
+            carry = std::uint64_t{1} << 56;
+        }
       }
     }
   }
@@ -202,117 +376,22 @@ int pixel_sweep(SuperpixelState& s, bool backwards) {
 
 void hill_climb(SuperpixelState& s, int block_levels, int first_level, int iterations,
                 int pixel_iterations, const Deadline& deadline) {
-  for (int level = std::max(1, first_level); level <= block_levels; ++level) {
+  first_level = std::max(1, first_level);
+  TileGrid coarser;  // the grid of the previous (coarser) level
+  for (int level = first_level; level <= block_levels; ++level) {
     const int b = block_size(s.cell_size_px, block_levels, level);  // ≈ ⌊s / l⌋, l = 2^level
     if (b < 2) break;
-    const int tiles_x = (s.width + b - 1) / b, tiles_y = (s.height + b - 1) / b;
-    std::vector<int> tiles = tile_labels(s, b, tiles_x, tiles_y);
+    TileGrid grid = make_tile_grid(s, b, level > first_level ? &coarser : nullptr);
     for (int it = 0; it < iterations; ++it) {
       if (deadline.passed()) return;
-      if (block_sweep(s, b, tiles, tiles_x, tiles_y, it % 2 == 1) == 0) break;
+      if (block_sweep(s, grid, it % 2 == 1) == 0) break;
     }
+    coarser = std::move(grid);
   }
   for (int it = 0; it < pixel_iterations; ++it) {
     if (deadline.passed()) return;
     if (pixel_sweep(s, it % 2 == 1) == 0) break;
   }
-}
-
-void enforce_connectivity(SuperpixelState& s) {
-  const int w = s.width, h = s.height, n = w * h;
-  std::vector<std::int32_t> component(n, -1);
-  std::vector<std::int32_t> order;  // pixels grouped by component (BFS order)
-  order.reserve(n);
-  std::vector<std::int32_t> comp_start, comp_label;
-  for (int seed = 0; seed < n; ++seed) {
-    if (component[seed] >= 0) continue;
-    const int c = static_cast<int>(comp_start.size());
-    const int label = s.labels[seed];
-    comp_start.push_back(static_cast<std::int32_t>(order.size()));
-    comp_label.push_back(label);
-    component[seed] = c;
-    order.push_back(seed);
-    for (std::size_t head = comp_start.back(); head < order.size(); ++head) {
-      const int i = order[head];
-      const int u = i % w, v = i / w;
-      auto visit = [&](int j) {
-        if (component[j] < 0 && s.labels[j] == label) {
-          component[j] = c;
-          order.push_back(j);
-        }
-      };
-      if (u > 0) visit(i - 1);
-      if (u + 1 < w) visit(i + 1);
-      if (v > 0) visit(i - w);
-      if (v + 1 < h) visit(i + w);
-    }
-  }
-  const int n_comp = static_cast<int>(comp_start.size());
-  comp_start.push_back(n);
-  // Largest component of each label stays; the others join a neighbouring segment.
-  std::vector<std::int32_t> keeper(s.num_segments, -1);
-  for (int c = 0; c < n_comp; ++c) {
-    const int l = comp_label[c];
-    const int size = comp_start[c + 1] - comp_start[c];
-    if (keeper[l] < 0 || size > comp_start[keeper[l] + 1] - comp_start[keeper[l]]) keeper[l] = c;
-  }
-  for (int c = 0; c < n_comp; ++c) {
-    if (keeper[comp_label[c]] == c) continue;
-    int target = -1;
-    for (int k = comp_start[c]; k < comp_start[c + 1] && target < 0; ++k) {
-      const int i = order[k];
-      const int u = i % w, v = i / w;
-      const int candidates[4] = {u > 0 ? i - 1 : -1, u + 1 < w ? i + 1 : -1,
-                                 v > 0 ? i - w : -1, v + 1 < h ? i + w : -1};
-      for (int j : candidates)
-        if (j >= 0 && component[j] != c && keeper[s.labels[j]] == component[j]) {
-          target = s.labels[j];
-          break;
-        }
-    }
-    if (target < 0) {  // only touches other orphans: take any different neighbour
-      for (int k = comp_start[c]; k < comp_start[c + 1] && target < 0; ++k) {
-        const int i = order[k];
-        if (i % w > 0 && component[i - 1] != c) target = s.labels[i - 1];
-        else if (i >= w && component[i - w] != c) target = s.labels[i - w];
-      }
-    }
-    if (target < 0) continue;
-    for (int k = comp_start[c]; k < comp_start[c + 1]; ++k) {
-      s.labels[order[k]] = target;
-      component[order[k]] = keeper[target];
-    }
-  }
-  // Renumber without gaps, carrying planes along.
-  std::vector<std::int32_t> remap(s.num_segments, -1);
-  std::vector<DisparityPlane> planes;
-  std::vector<std::uint8_t> has_plane;
-  int next = 0;
-  for (int i = 0; i < n; ++i) {
-    const int l = s.labels[i];
-    if (remap[l] < 0) {
-      remap[l] = next++;
-      planes.push_back(s.planes[l]);
-      has_plane.push_back(s.has_plane[l]);
-    }
-    s.labels[i] = remap[l];
-  }
-  s.num_segments = next;
-  s.planes = std::move(planes);
-  s.has_plane = std::move(has_plane);
-  recompute_statistics(s);
-}
-
-SegmentPixels group_pixels(const SuperpixelState& s) {
-  SegmentPixels g;
-  g.offsets.assign(s.num_segments + 1, 0);
-  for (std::int32_t l : s.labels) ++g.offsets[l + 1];
-  for (int k = 0; k < s.num_segments; ++k) g.offsets[k + 1] += g.offsets[k];
-  g.pixels.resize(s.labels.size());
-  std::vector<std::int32_t> cursor(g.offsets.begin(), g.offsets.end() - 1);
-  for (std::size_t i = 0; i < s.labels.size(); ++i)
-    g.pixels[cursor[s.labels[i]]++] = static_cast<std::int32_t>(i);
-  return g;
 }
 
 }  // namespace planecell::extraction::detail

@@ -2,6 +2,7 @@
 /// update → planes again → vertices, 2D→3D, attributes, dense disparity.
 #include "mapping/planecell/extraction.hpp"
 
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <string>
@@ -44,6 +45,75 @@ void validate(const ExtractionConfig& c) {
   if (!(c.max_time_ms >= 0.0)) fail("max_time_ms must be >= 0");
 }
 
+/// Mean colour (R, G, B) and normalised 64-bin colour histogram of every cell, in one raster
+/// pass; `area` is each cell's pixel count. Per row, the colour sums run over runs of equal
+/// labels (they vectorise) and the histogram bins are computed for the whole row first.
+void describe_colours(const cv::Mat& bgr, const std::vector<std::int32_t>& labels,
+                      const std::vector<std::int32_t>& area, std::vector<Planecell>& cells) {
+  const std::size_t n = cells.size();
+  std::vector<std::array<std::int64_t, 3>> rgb_sum(n, {0, 0, 0});
+  std::vector<std::int32_t> counts(n * kColourHistogramBins, 0);
+  std::vector<std::uint8_t> row_bins(bgr.cols);
+  for (int v = 0; v < bgr.rows; ++v) {
+    const auto* px = bgr.ptr<cv::Vec3b>(v);
+    const std::int32_t* row = labels.data() + static_cast<std::size_t>(v) * bgr.cols;
+    for (int u = 0; u < bgr.cols;) {
+      const int l = row[u];
+      std::int64_t r = 0, g = 0, b = 0;
+      for (; u < bgr.cols && row[u] == l; ++u) {
+        r += px[u][2];
+        g += px[u][1];
+        b += px[u][0];
+      }
+      rgb_sum[l][0] += r;
+      rgb_sum[l][1] += g;
+      rgb_sum[l][2] += b;
+    }
+    for (int u = 0; u < bgr.cols; ++u)
+      row_bins[u] = static_cast<std::uint8_t>(colour_histogram_bin(px[u][0], px[u][1], px[u][2]));
+    for (int u = 0; u < bgr.cols; ++u)
+      ++counts[static_cast<std::size_t>(row[u]) * kColourHistogramBins + row_bins[u]];
+  }
+  for (std::size_t k = 0; k < n; ++k) {
+    Planecell& cell = cells[k];
+    cell.histogram.fill(0.0f);
+    if (area[k] == 0) continue;
+    const Eigen::Vector3d sum(static_cast<double>(rgb_sum[k][0]),
+                              static_cast<double>(rgb_sum[k][1]),
+                              static_cast<double>(rgb_sum[k][2]));
+    cell.mean_rgb = (sum / area[k]).cast<float>();
+    for (int q = 0; q < kColourHistogramBins; ++q)
+      cell.histogram[q] =
+          static_cast<float>(counts[k * kColourHistogramBins + q]) / static_cast<float>(area[k]);
+  }
+}
+
+/// 255 where a valid input disparity lies more than `threshold_px` off its segment's plane.
+cv::Mat mark_outliers(const detail::SuperpixelState& s, double threshold_px) {
+  cv::Mat outliers(s.height, s.width, CV_8U);
+  for (int v = 0; v < s.height; ++v) {
+    const std::int32_t* labels = s.labels.data() + static_cast<std::size_t>(v) * s.width;
+    const float* disparity = s.disparity.data() + static_cast<std::size_t>(v) * s.width;
+    auto* out = outliers.ptr<std::uint8_t>(v);
+    for (int u = 0; u < s.width;) {  // one run of equal labels at a time
+      const int l = labels[u];
+      int end = u;
+      while (end < s.width && labels[end] == l) ++end;
+      if (!s.has_plane[l]) {
+        std::fill(out + u, out + end, std::uint8_t{0});
+      } else {
+        const DisparityPlane plane = s.planes[l];
+        for (; u < end; ++u) {  // branch-free: NaN compares false
+          const double d = disparity[u];
+          out[u] = std::abs(plane.at(u, v) - d) > threshold_px ? 255 : 0;
+        }
+      }
+      u = end;
+    }
+  }
+  return outliers;
+}
+
 }  // namespace
 
 PlanecellFrame extract_planecells(const cv::Mat& left, const cv::Mat& disparity,
@@ -82,7 +152,7 @@ PlanecellFrame extract_planecells(const cv::Mat& left, const cv::Mat& disparity,
   // 2. First plane fit.
   t = Clock::now();
   detail::SegmentPlaneFits fits;
-  detail::fit_segment_planes(state, detail::group_pixels(state), config, fits);
+  detail::fit_segment_planes(state, detail::gather_segment_samples(state), config, fits);
   frame.timings.planes_ms = elapsed_ms(t);
 
   // 3. Depth-aware boundary update, then connected, gap-free segments.
@@ -95,8 +165,8 @@ PlanecellFrame extract_planecells(const cv::Mat& left, const cv::Mat& disparity,
 
   // 4. Final plane fit (segments that failed before are retried on their new boundaries).
   t = Clock::now();
-  const detail::SegmentPixels groups = detail::group_pixels(state);
-  detail::fit_segment_planes(state, groups, config, fits);
+  const detail::SegmentSamples samples = detail::gather_segment_samples(state);
+  detail::fit_segment_planes(state, samples, config, fits);
   frame.timings.planes_ms += elapsed_ms(t);
 
   // 5. Vertices, 2D→3D, attributes, dense disparity.
@@ -108,29 +178,18 @@ PlanecellFrame extract_planecells(const cv::Mat& left, const cv::Mat& disparity,
   const auto polygons = extract_polygons(frame.labels, n, config.polygon_tolerance_px,
                                          config.junction_vertices_only);
   frame.cells.resize(n);
+  describe_colours(bgr, state.labels, samples.area, frame.cells);
   int with_plane = 0;
   for (int k = 0; k < n; ++k) {
     Planecell& cell = frame.cells[k];
     cell.id = static_cast<std::uint32_t>(k);
     cell.has_plane = state.has_plane[k] != 0;
     cell.disparity_plane = state.planes[k];
-    cell.area_px = static_cast<std::uint32_t>(groups.offsets[k + 1] - groups.offsets[k]);
+    cell.area_px = static_cast<std::uint32_t>(samples.area[k]);
     cell.inlier_count = cell.has_plane ? static_cast<std::uint32_t>(fits.inliers[k]) : 0u;
-    cell.inlier_ratio =
-        fits.valid[k] > 0 && cell.has_plane ? static_cast<float>(fits.inliers[k]) / fits.valid[k]
-                                            : 0.0f;
-    Eigen::Vector3d rgb = Eigen::Vector3d::Zero();
-    cell.histogram.fill(0.0f);
-    for (int j = groups.offsets[k]; j < groups.offsets[k + 1]; ++j) {
-      const int i = groups.pixels[j];
-      const cv::Vec3b& px = bgr.at<cv::Vec3b>(i / w, i % w);
-      rgb += Eigen::Vector3d(px[2], px[1], px[0]);
-      cell.histogram[colour_histogram_bin(px[0], px[1], px[2])] += 1.0f;
-    }
-    if (cell.area_px > 0) {
-      cell.mean_rgb = (rgb / cell.area_px).cast<float>();
-      for (float& bin : cell.histogram) bin /= static_cast<float>(cell.area_px);
-    }
+    cell.inlier_ratio = fits.valid[k] > 0 && cell.has_plane
+                            ? static_cast<float>(fits.inliers[k]) / fits.valid[k]
+                            : 0.0f;
     cell.vertices_px = polygons[k];
     convert_to_3d(cell, camera);
     if (cell.has_plane && !cell.vertices_m.empty()) {
@@ -146,14 +205,7 @@ PlanecellFrame extract_planecells(const cv::Mat& left, const cv::Mat& disparity,
   frame.dense_disparity = render_dense_disparity(frame.labels, frame.cells, config.fill_planeless);
   if (config.background_fill_holes)
     prefer_background_in_holes(frame.dense_disparity, disparity, frame.labels, frame.cells);
-  frame.outliers = cv::Mat::zeros(h, w, CV_8U);
-  for (int i = 0; i < w * h; ++i) {
-    const float d = state.disparity[i];
-    const int l = state.labels[i];
-    if (!std::isnan(d) && state.has_plane[l] &&
-        std::abs(state.planes[l].at(i % w, i / w) - d) > config.inlier_threshold_px)
-      frame.outliers.at<std::uint8_t>(i / w, i % w) = 255;
-  }
+  frame.outliers = mark_outliers(state, config.inlier_threshold_px);
   frame.timings.vertices_ms = elapsed_ms(t);
   frame.timings.total_ms = elapsed_ms(t_start);
   return frame;

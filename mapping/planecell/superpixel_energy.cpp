@@ -1,9 +1,9 @@
 /// Superpixel energy E(S) = H(S) + λ_reg·R(S) + λ_depth·D(S) (paper Eq. 4) and its block costs
-/// c1, c2 (paper §4.5), plus the state they read: colour bins, disparity integrals, segment stats.
+/// c1, c2 (paper §4.5), plus the state they read: colour bins, disparities, segment statistics.
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
-
 #include <opencv2/imgproc.hpp>
 
 #include "core/error.hpp"
@@ -13,25 +13,28 @@ namespace planecell::extraction::detail {
 namespace {
 
 /// Lab (8-bit OpenCV scaling) → one of 5×5×5 bins. L is split uniformly; a and b, which rarely
-/// leave [68, 188] in natural images, into 24-wide bins centred on the neutral value 128.
-inline std::uint8_t lab_bin(std::uint8_t l, std::uint8_t a, std::uint8_t b) {
-  const int lb = l * kEnergyBinsPerChannel / 256;
-  const int ab = std::clamp((static_cast<int>(a) - 68) / 24, 0, kEnergyBinsPerChannel - 1);
-  const int bb = std::clamp((static_cast<int>(b) - 68) / 24, 0, kEnergyBinsPerChannel - 1);
-  return static_cast<std::uint8_t>((lb * kEnergyBinsPerChannel + ab) * kEnergyBinsPerChannel + bb);
+/// leave [68, 188] in natural images, into 24-wide bins centred on the neutral value 128:
+///   bin = (⌊5L/256⌋·5 + q(a))·5 + q(b),  q(x) = clamp(⌊(x − 68)/24⌋, 0, 4),
+/// read from two 256-entry tables (L part premultiplied by 25, a part by 5).
+struct LabBinTables {
+  std::array<std::uint8_t, 256> l25{}, a5{}, b1{};
+};
+
+constexpr LabBinTables make_lab_bin_tables() {
+  LabBinTables t;
+  constexpr int n = kEnergyBinsPerChannel;
+  for (int x = 0; x < 256; ++x) {
+    const int q = std::clamp((x - 68) / 24, 0, n - 1);
+    t.l25[x] = static_cast<std::uint8_t>(x * n / 256 * n * n);
+    t.a5[x] = static_cast<std::uint8_t>(q * n);
+    t.b1[x] = static_cast<std::uint8_t>(q);
+  }
+  return t;
 }
+
+constexpr LabBinTables kLabBins = make_lab_bin_tables();
 
 }  // namespace
-
-double SuperpixelState::mean_disparity(int u0, int v0, int u1, int v1, int* valid) const {
-  const int stride = width + 1;
-  auto at_count = [&](int u, int v) { return valid_count[v * stride + u]; };
-  auto at_sum = [&](int u, int v) { return disparity_sum[v * stride + u]; };
-  const int n = at_count(u1, v1) - at_count(u0, v1) - at_count(u1, v0) + at_count(u0, v0);
-  *valid = n;
-  if (n == 0) return 0.0;
-  return (at_sum(u1, v1) - at_sum(u0, v1) - at_sum(u1, v0) + at_sum(u0, v0)) / n;
-}
 
 SuperpixelState make_initial_state(const cv::Mat& bgr, const cv::Mat& disparity,
                                    const ExtractionConfig& config) {
@@ -50,28 +53,19 @@ SuperpixelState make_initial_state(const cv::Mat& bgr, const cv::Mat& disparity,
   for (int v = 0; v < s.height; ++v) {
     const auto* row = lab.ptr<cv::Vec3b>(v);
     std::uint8_t* out = s.bins.data() + v * s.width;
-    for (int u = 0; u < s.width; ++u) out[u] = lab_bin(row[u][0], row[u][1], row[u][2]);
+    for (int u = 0; u < s.width; ++u)
+      out[u] = static_cast<std::uint8_t>(kLabBins.l25[row[u][0]] + kLabBins.a5[row[u][1]] +
+                                         kLabBins.b1[row[u][2]]);
   }
 
-  // Disparity and its integral images (for the block means d̄_b in O(1)).
+  // Disparity (NaN where unmatched).
   s.disparity.resize(n_pixels);
-  const int stride = s.width + 1;
-  s.disparity_sum.assign(static_cast<std::size_t>(stride) * (s.height + 1), 0.0);
-  s.valid_count.assign(static_cast<std::size_t>(stride) * (s.height + 1), 0);
   for (int v = 0; v < s.height; ++v) {
     const float* row = disparity.ptr<float>(v);
-    double row_sum = 0.0;
-    int row_count = 0;
+    float* out = s.disparity.data() + static_cast<std::size_t>(v) * s.width;
     for (int u = 0; u < s.width; ++u) {
       const float d = row[u];
-      const bool ok = std::isfinite(d) && d > 0.0f;
-      s.disparity[v * s.width + u] = ok ? d : std::numeric_limits<float>::quiet_NaN();
-      if (ok) {
-        row_sum += d;
-        ++row_count;
-      }
-      s.disparity_sum[(v + 1) * stride + u + 1] = s.disparity_sum[v * stride + u + 1] + row_sum;
-      s.valid_count[(v + 1) * stride + u + 1] = s.valid_count[v * stride + u + 1] + row_count;
+      out[u] = std::isfinite(d) && d > 0.0f ? d : std::numeric_limits<float>::quiet_NaN();
     }
   }
 
@@ -96,7 +90,8 @@ SuperpixelState make_initial_state(const cv::Mat& bgr, const cv::Mat& disparity,
   s.labels.resize(n_pixels);
   for (int v = 0; v < s.height; ++v) {
     const int row_label = row[v] * nx;
-    for (int u = 0; u < s.width; ++u) s.labels[v * s.width + u] = row_label + column[u];
+    std::int32_t* out = s.labels.data() + static_cast<std::size_t>(v) * s.width;
+    for (int u = 0; u < s.width; ++u) out[u] = row_label + column[u];
   }
   s.num_segments = nx * ny;
   s.planes.assign(s.num_segments, DisparityPlane{});
@@ -114,28 +109,37 @@ void recompute_statistics(SuperpixelState& s) {
   s.sum_u.assign(s.num_segments, 0.0);
   s.sum_v.assign(s.num_segments, 0.0);
   for (int v = 0; v < s.height; ++v) {
-    for (int u = 0; u < s.width; ++u) {
-      const int i = v * s.width + u;
-      const int l = s.labels[i];
-      ++s.histogram[l * kEnergyBins + s.bins[i]];
-      ++s.size[l];
-      s.sum_u[l] += u;
-      s.sum_v[l] += v;
+    const std::int32_t* row = s.labels.data() + static_cast<std::size_t>(v) * s.width;
+    const std::uint8_t* bins = s.bins.data() + static_cast<std::size_t>(v) * s.width;
+    for (int u = 0; u < s.width; ++u)
+      ++s.histogram[static_cast<std::size_t>(row[u]) * kEnergyBins + bins[u]];
+    int u = 0;
+    while (u < s.width) {  // one run of equal labels at a time: Σu over [u0, u) in closed form
+      const int u0 = u;
+      const int l = row[u];
+      while (u < s.width && row[u] == l) ++u;
+      const long long n = u - u0;
+      s.size[l] += static_cast<std::int32_t>(n);
+      s.sum_u[l] += static_cast<double>(n * (u0 + u - 1) / 2);  // integers: exact in double
+      s.sum_v[l] += static_cast<double>(n * v);
     }
   }
+  s.centre.resize(s.num_segments);
+  for (int l = 0; l < s.num_segments; ++l) s.refresh_centre(l);
 }
 
 double block_score(const SuperpixelState& s, int segment, const BlockData& b) {
   // c1: histogram intersection Σ_q min(h_S(q), h_b(q)) of the normalised histograms.
   const std::int32_t* h = s.histogram.data() + static_cast<std::size_t>(segment) * kEnergyBins;
-  const double inv_segment = 1.0 / std::max(1, s.size[segment]);
+  const SegmentCentre& centre = s.centre[segment];
+  const double inv_segment = centre.inv_size;
   const double inv_block = 1.0 / b.pixels;
   double c1 = 0.0;
   for (int k = 0; k < b.distinct_bins; ++k)
     c1 += std::min(h[b.bin_ids[k]] * inv_segment, b.bin_counts[k] * inv_block);
   // c2: λ_reg·‖μ_S − b‖²/s² + λ_depth·min((θ_S(b) − d̄_b)², τ²)/τ².
-  const double du = s.sum_u[segment] * inv_segment - b.centre_u;
-  const double dv = s.sum_v[segment] * inv_segment - b.centre_v;
+  const double du = centre.mean_u - b.centre_u;
+  const double dv = centre.mean_v - b.centre_v;
   double c2 = s.weights.reg_per_px2 * (du * du + dv * dv);
   if (s.weights.depth_enabled && b.has_disparity) {
     const double tau = s.weights.depth_truncation_px;
@@ -170,6 +174,8 @@ void move_block(SuperpixelState& s, int u0, int v0, int u1, int v1, int from, in
   s.sum_u[to] += su;
   s.sum_v[from] -= sv;
   s.sum_v[to] += sv;
+  s.refresh_centre(from);
+  s.refresh_centre(to);
 }
 
 }  // namespace planecell::extraction::detail

@@ -111,14 +111,17 @@ std::vector<std::vector<Eigen::Vector2f>> extract_polygons(const cv::Mat& labels
     throw InputError("extract_polygons: labels must be a non-empty CV_32S image");
   if (num_labels < 0) throw InputError("extract_polygons: num_labels must be >= 0");
   const int w = labels.cols, h = labels.rows;
-  auto label_at = [&](int u, int v) {
-    return (u < 0 || v < 0 || u >= w || v >= h) ? -1 : labels.at<std::int32_t>(v, u);
-  };
 
-  // The raster-first pixel of each label starts its trace.
+  // Labels on a grid padded by one pixel of −1 (the outside), so that the four pixels around
+  // lattice point (x, y), i.e. pixels (x−1, y−1), (x, y−1), (x−1, y), (x, y), sit at padded
+  // indices p, p + 1, p + stride, p + stride + 1 with p = y·stride + x. The raster-first pixel
+  // of each label starts its trace.
+  const int stride = w + 2;
+  std::vector<std::int32_t> padded(static_cast<std::size_t>(stride) * (h + 2), -1);
   std::vector<int> start(num_labels, -1);
   for (int v = 0; v < h; ++v) {
     const auto* row = labels.ptr<std::int32_t>(v);
+    std::int32_t* out = padded.data() + static_cast<std::size_t>(v + 1) * stride + 1;
     for (int u = 0; u < w; ++u) {
       const int l = row[u];
       if (l < 0 || l >= num_labels)
@@ -126,6 +129,7 @@ std::vector<std::vector<Eigen::Vector2f>> extract_polygons(const cv::Mat& labels
                          std::to_string(u) + ", " + std::to_string(v) + ") outside [0, " +
                          std::to_string(num_labels) + ")");
       if (start[l] < 0) start[l] = v * w + u;
+      out[u] = l;
     }
   }
 
@@ -133,29 +137,25 @@ std::vector<std::vector<Eigen::Vector2f>> extract_polygons(const cv::Mat& labels
   std::vector<LatticeVertex> traced;
   for (int l = 0; l < num_labels; ++l) {
     if (start[l] < 0) continue;
-    auto in = [&](int u, int v) { return label_at(u, v) == l; };
     const int x0 = start[l] % w, y0 = start[l] / w;
     int x = x0, y = y0;
     int heading = 3;  // the closing edge arrives heading north
     traced.clear();
     do {
-      // Front-right / front-left pixels of the edge leaving (x, y) along `heading`.
-      const int fr_u = x + (heading == 1 || heading == 2 ? -1 : 0);
-      const int fr_v = y + (heading == 2 || heading == 3 ? -1 : 0);
-      const int fl_u = x + (heading == 2 || heading == 3 ? -1 : 0);
-      const int fl_v = y + (heading == 0 || heading == 3 ? -1 : 0);
+      const std::int32_t* p = padded.data() + static_cast<std::size_t>(y) * stride + x;
+      // The four pixels around (x, y): NW, NE, SW, SE.
+      const int nw = p[0], ne = p[1], sw = p[stride], se = p[stride + 1];
+      // Front-right / front-left pixels of the edge leaving (x, y) along `heading` (E, S, W, N).
+      const int front_right = heading == 0 ? se : heading == 1 ? sw : heading == 2 ? nw : ne;
+      const int front_left = heading == 0 ? ne : heading == 1 ? se : heading == 2 ? sw : nw;
       int next = heading;
-      if (!in(fr_u, fr_v)) next = (heading + 1) % 4;         // turn right
-      else if (in(fl_u, fl_v)) next = (heading + 3) % 4;     // turn left
+      if (front_right != l)
+        next = (heading + 1) % 4;  // turn right
+      else if (front_left == l)
+        next = (heading + 3) % 4;  // turn left
       // Junction: ≥ 3 distinct segments (outside = −1) among the four pixels around (x, y).
-      const std::array<int, 4> around = {label_at(x - 1, y - 1), label_at(x, y - 1),
-                                         label_at(x - 1, y), label_at(x, y)};
-      int distinct = 0;
-      for (int k = 0; k < 4; ++k) {
-        bool seen = false;
-        for (int j = 0; j < k; ++j) seen |= around[j] == around[k];
-        distinct += !seen;
-      }
+      const int distinct =
+          1 + (ne != nw) + (sw != nw && sw != ne) + (se != nw && se != ne && se != sw);
       const bool image_corner = (x == 0 || x == w) && (y == 0 || y == h);
       const bool junction = distinct >= 3 || image_corner;
       if (next != heading || junction) traced.push_back({x, y, junction});

@@ -34,13 +34,17 @@ struct PoseRefinement {
   Pose refined = Pose::Identity();  ///< T_world_cam after refinement (= input unless kRefined)
   Eigen::Matrix<double, 6, 1> correction = Eigen::Matrix<double, 6, 1>::Zero();  ///< (ω rad, τ m)
   std::size_t associations = 0;     ///< frame cells paired with a map surface (last round)
-  std::size_t residuals = 0;        ///< point-to-plane residuals in the last solve
+  std::size_t residuals = 0;        ///< point-to-plane residuals in the last solve (one per association)
   int iterations = 0;               ///< Ceres iterations, all rounds
   double initial_cost = 0.0;        ///< Ceres cost ½Σρ of the first round at δ = 0
   double final_cost = 0.0;          ///< Ceres cost at the solution of the last round
-  /// Eigenvalues (ascending) of the information matrix JᵀJ in the scaled coordinates
-  /// (ω·L, τ), L = RMS distance of the residual points from the camera centre (m²·weight).
+  /// Eigenvalues (ascending) of the map's information matrix (whitened residuals) in the scaled
+  /// coordinates (ω·L, τ), L = RMS distance of the residual points from the camera centre (1/m²).
   Eigen::Matrix<double, 6, 1> information_eigenvalues = Eigen::Matrix<double, 6, 1>::Zero();
+  /// The map's information about (ω, τ) (world axes; 1/rad², 1/m²) at the solution of the last
+  /// round: Σ_k ρ'(r_k²) J_kᵀ J_k of the whitened residuals (see solve_correction); its inverse is
+  /// the covariance of the map-only estimate along the observable directions.
+  Eigen::Matrix<double, 6, 6> information = Eigen::Matrix<double, 6, 6>::Zero();
   int observable_directions = 0;    ///< eigenvalues ≥ degeneracy_ratio × the largest
   RefineStatus status = RefineStatus::kDisabled;
 };
@@ -48,35 +52,23 @@ struct PoseRefinement {
 /// Throws ConfigError naming the field when a RefineConfig value is out of range.
 void validate(const RefineConfig& config);
 
+/// σ of the odometry prediction after driving `step_m` metres (world axes, rad ×3 then m ×3):
+///   σ_τ = prior_sigma_m + prior_sigma_m_per_m · step_m,  σ_ω = prior_sigma_deg + prior_sigma_deg_per_m · step_m.
+/// Zero (no prior) when either σ is 0.
+Eigen::Matrix<double, 6, 1> prior_sigma(const RefineConfig& config, double step_m);
+
 /// Refines T_world_cam_input of a frame whose planecells are `cells_cam` (camera frame, as from
-/// extraction; planeless cells, cells without area or inlier_ratio, and cells whose vertex centroid
-/// is beyond max_range_m from the camera are ignored) against `map`.
+/// extraction) against `map`; `step_m` is the distance driven since the previous refined frame
+/// (it widens the odometry prior, see prior_sigma).
 ///
-/// Association (per cell, with the current pose estimate): X_k = T X_k^cam for its vertices,
-/// candidate surfaces are those of the map cells returned by cells_near(bounds inflated by
-/// max_plane_distance_m + overlap_margin_m); a surface S = (n_s, e_s) passes when
-///   angle(n_w, ±n_s) ≤ max_normal_angle_deg,  RMS_k (n_s·X_k + e_s) ≤ max_plane_distance_m,
-///   overlap = share of samples {X_k, centroid} whose projection onto a nearby member cell's plane
-///   lies within overlap_margin_m of that cell's polygon ≥ min_overlap;
-/// the passing surface with the smallest RMS distance is chosen. ("Near its polygon" is tested
-/// as: inside the member cell's vertex bounds grown by overlap_margin_m.)
-///
-/// Solve: minimise over δ = (ω, τ)   Σ_cells Σ_k w_k ρ( (n_s·X_k'(δ) + e_s)² )  with
-///   X_k'(δ) = R(ω)(X_k − c) + c + τ,
-///   w_k = (area_px · inlier_ratio / K) / (σ₀² + σ_r,k²)   (K vertices of the cell),
-///   σ_r,k = |e_c| · Z_k · σ_d / (fx · B): a depth error σ_Z = Z²σ_d/(fx·B) moves the vertex along
-///   its ray, which changes its distance to its plane n_c·X + e_c = 0 by |n_c·X_k|·σ_Z/Z = |e_c|·σ_Z/Z;
-/// ρ Huber or Cauchy with scale loss_scale_m (Ceres, automatic derivatives, dense QR).
-/// Rounds: association is redone with the refined pose association_rounds times.
-///
-/// Degeneracy: J (rows √w_c ∂r/∂δ at the solution, robust weights included) scaled to
-/// (ω·L, τ); H = JᵀJ = V Λ Vᵀ. Directions with λ_i < degeneracy_ratio·λ_max are unobservable
-/// (e.g. only the road visible: translation along the road and yaw); the scaled correction is
-/// projected onto the observable eigenvectors, δ ← S⁻¹ V_o V_oᵀ S δ, so the input odometry is kept
-/// along the rest. A correction beyond max_correction_m / max_correction_deg is rejected.
-/// Throws ConfigError on an invalid config, InputError on an invalid input pose.
+/// Rounds (association_rounds): associate the cells with the map surfaces at the current pose
+/// (associate_cells: centroid-to-surface pairs with σ_k), solve the correction (solve_correction:
+/// robust whitened point-to-plane residuals on SO(3) × R³ plus the prior around the input pose,
+/// unobservable directions projected out), apply it. A total correction beyond
+/// max_correction_m / max_correction_deg is rejected (input kept).
+/// Throws ConfigError on an invalid config, InputError on an invalid input pose or camera.
 PoseRefinement refine_pose(std::span<const Planecell> cells_cam, const Pose& T_world_cam_input,
                            const map::GlobalMap& map, const StereoCamera& camera,
-                           const RefineConfig& config);
+                           const RefineConfig& config, double step_m = 0.0);
 
 }  // namespace planecell::refine

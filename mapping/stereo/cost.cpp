@@ -9,7 +9,6 @@
 #include <immintrin.h>
 #endif
 
-#include "mapping/stereo/parallel_rows.hpp"
 #include "mapping/stereo/sgm_detail.hpp"
 
 namespace planecell::stereo::detail {
@@ -88,55 +87,71 @@ std::vector<std::uint16_t> p2_table(const SgmConfig& c) {
   return table;
 }
 
-/// C(x, y, d) for every pixel, written as [y][x][d]. The right image's census and gradient rows
-/// are reversed (j = W − 1 − x_r) so that the match q = p − d walks forward in memory as d grows.
-void cost_volume(const CensusImage& census_l, const CensusImage& census_r,
-                 const cv::Mat& gradient_l, const cv::Mat& gradient_r, const SgmConfig& config,
-                 int threads, Volume<std::uint8_t>& cost) {
-  const int width = census_l.width, height = census_l.height;
-  const int dp = padded_disparities(config.max_disparity);
-  const int d_max = config.max_disparity;
-  const int cap = config.grad_cap;  // copies: no aliasing with the uint8 stores
-  const int lq4 = lambda_q4(config.lambda_grad);
-  const auto invalid = static_cast<std::uint8_t>(out_of_image_cost(config));
-  CV_Assert(cost.size >= static_cast<std::size_t>(width) * height * dp);
+CostInputs cost_inputs(const CensusImage& census_l, const CensusImage& census_r,
+                       const cv::Mat& gradient_l, const cv::Mat& gradient_r,
+                       const SgmConfig& config) {
+  CV_Assert(census_l.width == census_r.width && census_l.height == census_r.height);
+  CV_Assert(gradient_l.type() == CV_16S && gradient_r.type() == CV_16S);
+  CostInputs in;
+  in.census_l = &census_l;
+  in.census_r = &census_r;
+  in.gradient_l = &gradient_l;
+  in.gradient_r = &gradient_r;
+  in.max_disparity = config.max_disparity;
+  in.dp = padded_disparities(config.max_disparity);
+  in.grad_cap = config.grad_cap;
+  in.lambda_q4 = lambda_q4(config.lambda_grad);
+  in.invalid = static_cast<std::uint8_t>(out_of_image_cost(config));
+  return in;
+}
 
-  parallel_rows(height, threads, [&](int y_begin, int y_end) {
-    std::vector<std::uint64_t> census_rev(static_cast<std::size_t>(width + dp + 16), 0);
-    std::vector<std::int16_t> grad_rev(static_cast<std::size_t>(width + dp + 16), 0);
-    std::vector<std::uint8_t> ham(static_cast<std::size_t>(dp));
-    for (int y = y_begin; y < y_end; ++y) {
-      const std::int16_t* gl = gradient_l.ptr<std::int16_t>(y);
-      const std::int16_t* gr = gradient_r.ptr<std::int16_t>(y);
-      for (int j = 0; j < width; ++j) {
-        census_rev[static_cast<std::size_t>(j)] = census_r.at(width - 1 - j, y);
-        grad_rev[static_cast<std::size_t>(j)] = gr[width - 1 - j];
-      }
-      std::uint8_t* row = cost.get() + static_cast<std::size_t>(y) * width * dp;
-      for (int x = 0; x < width; ++x) {
-        std::uint8_t* c = row + static_cast<std::size_t>(x) * dp;
-        const int valid = std::min(d_max, x + 1);  // q = x − d ≥ 0
-        const std::uint64_t cl = census_l.at(x, y);
-        const std::uint64_t* cr = census_rev.data() + (width - 1 - x);
-        const std::int16_t* g_r = grad_rev.data() + (width - 1 - x);
-        const int g_l = gl[x];
+/// Reversed rows padded by D_p + 64 zero entries: a kernel may read one 64-lane block past D_p.
+void ReversedRightRow::load(const CostInputs& in, int row) {
+  y = row;
+  const int width = in.census_r->width;
+  const std::size_t length = static_cast<std::size_t>(width + in.dp + 64);
+  if (census.size() != length) {
+    census.assign(length, 0);
+    gradient.assign(length, 0);
+  }
+  const std::uint64_t* c = in.census_r->bits.data() + static_cast<std::size_t>(y) * width;
+  const std::int16_t* g = in.gradient_r->ptr<std::int16_t>(y);
+  for (int j = 0; j < width; ++j) {
+    census[static_cast<std::size_t>(j)] = c[width - 1 - j];
+    gradient[static_cast<std::size_t>(j)] = g[width - 1 - j];
+  }
+}
+
+/// C(x, y, d) for x ∈ [x_begin, x_end), [x][d]: the match q = x − d is entry W − 1 − x + d of
+/// the reversed right row.
+void cost_row(const CostInputs& in, const ReversedRightRow& right, int x_begin, int x_end,
+              std::uint8_t* out) {
+  const int y = right.y;
+  const int width = in.census_l->width, dp = in.dp, d_max = in.max_disparity;
+  const int cap = in.grad_cap, lq4 = in.lambda_q4;  // copies: no aliasing with the uint8 stores
+  const std::uint8_t invalid = in.invalid;
+  const std::uint64_t* census_l = in.census_l->bits.data() + static_cast<std::size_t>(y) * width;
+  const std::int16_t* gl = in.gradient_l->ptr<std::int16_t>(y);
+  for (int x = x_begin; x < x_end; ++x) {
+    std::uint8_t* c = out + static_cast<std::size_t>(x - x_begin) * dp;
+    const int valid = std::min(d_max, x + 1);  // q = x − d ≥ 0
+    const std::uint64_t cl = census_l[x];
+    const std::uint64_t* cr = right.census.data() + (width - 1 - x);
+    const std::int16_t* g_r = right.gradient.data() + (width - 1 - x);
+    const int g_l = gl[x];
 #if defined(__AVX2__)
-        // Whole blocks (reads past the row stay inside the padded reversed rows); the lanes
-        // d ≥ valid are overwritten below.
-        for (int d = 0; d < valid; d += 16) cost_block16(cl, cr + d, g_l, g_r + d, cap, lq4, c + d);
+    // Whole blocks (reads past the row stay inside the padded reversed rows); the lanes
+    // d ≥ valid are overwritten below.
+    for (int d = 0; d < valid; d += 16) cost_block16(cl, cr + d, g_l, g_r + d, cap, lq4, c + d);
 #else
-        for (int d = 0; d < valid; ++d)
-          ham[static_cast<std::size_t>(d)] = static_cast<std::uint8_t>(std::popcount(cl ^ cr[d]));
-        for (int d = 0; d < valid; ++d) {
-          const int g = std::min(std::abs(g_l - g_r[d]), cap);
-          c[d] = static_cast<std::uint8_t>(
-              std::min(255, ham[static_cast<std::size_t>(d)] + ((g * lq4 + 8) >> 4)));
-        }
-#endif
-        for (int d = valid; d < dp; ++d) c[d] = invalid;
-      }
+    for (int d = 0; d < valid; ++d) {
+      const int g = std::min(std::abs(g_l - g_r[d]), cap);
+      c[d] = static_cast<std::uint8_t>(
+          std::min(255, std::popcount(cl ^ cr[d]) + ((g * lq4 + 8) >> 4)));
     }
-  });
+#endif
+    for (int d = valid; d < dp; ++d) c[d] = invalid;
+  }
 }
 
 }  // namespace planecell::stereo::detail

@@ -1,5 +1,6 @@
 /// Disparity selection on the aggregated cost S (Eq. 2) and the post-filters: winner-take-all,
 /// uniqueness ratio, sub-pixel parabola, left-right check, small-speckle removal.
+#include <cmath>
 #include <limits>
 #include <opencv2/calib3d.hpp>
 
@@ -21,12 +22,15 @@ constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
 void right_winners(const std::uint16_t* S, int width, int dp, std::uint32_t* keys) {
   std::fill(keys, keys + width + dp, 0xFFFFFFFFu);
 #if defined(__AVX2__)
-  // x steps by 16 inside a d block so that consecutive read-modify-writes never overlap.
+  // x steps by 17 inside a d block so that consecutive read-modify-writes never overlap, and
+  // the S rows read one after the other are not 4 KiB apart (as a step of 16 would be at
+  // D_p = 128, hitting one L1 set).
+  constexpr int kStep = 17;
   const __m256i lane = _mm256_setr_epi16(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
   for (int d0 = 0; d0 < dp; d0 += 16) {
     const __m256i dv = _mm256_add_epi16(lane, _mm256_set1_epi16(static_cast<short>(d0)));
-    for (int phase = 0; phase < 16; ++phase) {
-      for (int x = phase; x < width; x += 16) {
+    for (int phase = 0; phase < kStep; ++phase) {
+      for (int x = phase; x < width; x += kStep) {
         const __m256i s = _mm256_loadu_si256(
             reinterpret_cast<const __m256i*>(S + static_cast<std::size_t>(x) * dp + d0));
         const __m256i lo = _mm256_unpacklo_epi16(dv, s);  // lanes 0-3, 8-11
@@ -83,6 +87,13 @@ inline int first_index_of(const std::uint16_t* s, int dp, std::uint16_t value) {
 #endif
 }
 
+/// std::lround for the float values here (|v| < 2^24), without the libm call: v + 0.5 is exact
+/// in double, so floor gives round-half-up, mirrored for negative v (half away from zero).
+inline short round_half_away(float v) {
+  const double a = std::floor(std::abs(static_cast<double>(v)) + 0.5);
+  return static_cast<short>(v < 0.0f ? -a : a);
+}
+
 }  // namespace
 
 void select_row(std::uint16_t* S, int width, const SgmConfig& config, float* out) {
@@ -101,13 +112,17 @@ void select_row(std::uint16_t* S, int width, const SgmConfig& config, float* out
     std::uint16_t* s = S + static_cast<std::size_t>(x) * dp;
     const std::uint16_t best = min_cost(s, dp);
     const int d = first_index_of(s, dp, best);
-    // Second best outside d−1 … d+1: hide the three, take the minimum, restore.
-    const int lo = std::max(0, d - 1), hi = std::min(d_max - 1, d + 1);
-    std::uint16_t saved[3];
-    for (int k = lo; k <= hi; ++k) saved[k - lo] = s[k], s[k] = kMaxCost;
-    const std::uint16_t second = min_cost(s, dp);
-    for (int k = lo; k <= hi; ++k) s[k] = saved[k - lo];
-    bool valid = x - d >= 0 && is_unique(best, second, config.uniqueness_ratio);
+    bool valid = x - d >= 0;
+    if (valid && config.uniqueness_ratio > 0) {
+      // Second best outside d−1 … d+1: hide the three, take the minimum, restore. (With ratio 0
+      // the test is second ≥ best, always true: skipped.)
+      const int lo = std::max(0, d - 1), hi = std::min(d_max - 1, d + 1);
+      std::uint16_t saved[3];
+      for (int k = lo; k <= hi; ++k) saved[k - lo] = s[k], s[k] = kMaxCost;
+      const std::uint16_t second = min_cost(s, dp);
+      for (int k = lo; k <= hi; ++k) s[k] = saved[k - lo];
+      valid = is_unique(best, second, config.uniqueness_ratio);
+    }
     if (valid && config.lr_check) {
       const int d_right = static_cast<int>(keys[static_cast<std::size_t>(width - 1 - (x - d))] & 0xFFFFu);
       valid = std::abs(d - d_right) <= config.lr_max_diff_px;
@@ -130,7 +145,7 @@ void remove_speckles(cv::Mat& disparity, const SgmConfig& config) {
     const float* d = disparity.ptr<float>(y);
     short* f = fixed.ptr<short>(y);
     for (int x = 0; x < disparity.cols; ++x)
-      f[x] = std::isnan(d[x]) ? kInvalid : static_cast<short>(std::lround(d[x] * 16.0f));
+      f[x] = std::isnan(d[x]) ? kInvalid : round_half_away(d[x] * 16.0f);
   }
   const int max_diff = static_cast<int>(std::lround(config.speckle_range_px * 16.0));
   cv::filterSpeckles(fixed, kInvalid, config.speckle_window_size, max_diff);

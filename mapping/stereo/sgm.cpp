@@ -1,10 +1,12 @@
-/// The SGM disparity stage: validation, then census → cost → aggregation/selection → speckles.
+/// The SGM disparity stage: validation, then census → (cost rows inside the aggregation passes)
+/// → selection → speckles.
 #include "mapping/stereo/sgm.hpp"
 
 #include <algorithm>
 #include <opencv2/imgproc.hpp>
 #include <memory>
 #include <string>
+#include <thread>
 
 #include "core/error.hpp"
 #include "mapping/stereo/sgm_detail.hpp"
@@ -81,25 +83,41 @@ cv::Mat detail::compute_disparity_with(const cv::Mat& left, const cv::Mat& right
                                        const SgmConfig& config, AggregationKernel kernel) {
   validate_sgm_input(left, right, config);
   const cv::Mat gray_l = to_gray(left), gray_r = to_gray(right);
-  const auto census_l =
-      census_transform(gray_l, config.census_width, config.census_height, config.threads);
-  const auto census_r =
-      census_transform(gray_r, config.census_width, config.census_height, config.threads);
-  // The two large volumes (cost: W·H·D_p bytes, parked sums: twice that) are kept per calling
-  // thread between calls, so that a stream of frames does not fault ~180 MB in every frame.
-  thread_local std::unique_ptr<Volume<std::uint8_t>> cost;
+  // Census and gradient of the two images, one image per thread when there are two.
+  CensusImage census_l, census_r;
+  cv::Mat gradient_l, gradient_r;
+  auto describe_left = [&] {
+    census_l = census_transform(gray_l, config.census_width, config.census_height, 1);
+    gradient_l = epipolar_gradient(gray_l);
+  };
+  auto describe_right = [&] {
+    census_r = census_transform(gray_r, config.census_width, config.census_height, 1);
+    gradient_r = epipolar_gradient(gray_r);
+  };
+  if (config.threads >= 2) {
+    std::thread worker(describe_right);
+    describe_left();
+    worker.join();
+  } else {
+    describe_left();
+    describe_right();
+  }
+  // The parked-sum volume (W·H·D_p uint16) is kept per calling thread between calls, so that a
+  // stream of frames does not fault it in every frame. The cost rows are computed inside the
+  // aggregation passes (no cost volume).
   thread_local std::unique_ptr<Volume<std::uint16_t>> parked;
   const std::size_t cells = static_cast<std::size_t>(left.cols) * left.rows *
                             padded_disparities(config.max_disparity);
-  if (!cost || cost->size < cells) {
-    cost.reset();
+  if (!parked || parked->size < cells) {
     parked.reset();
-    cost = std::make_unique<Volume<std::uint8_t>>(cells);
     parked = std::make_unique<Volume<std::uint16_t>>(cells);
   }
-  cost_volume(census_l, census_r, epipolar_gradient(gray_l), epipolar_gradient(gray_r), config,
-              config.threads, *cost);
-  cv::Mat disparity = aggregate_and_select(*cost, gray_l, config, *parked, kernel);
+  const CostInputs costs = cost_inputs(census_l, census_r, gradient_l, gradient_r, config);
+  const CostRowFunction cost_row_function =
+      kernel == AggregationKernel::avx512 && cost_row_avx512_supported() ? &cost_row_avx512
+                                                                          : &cost_row;
+  cv::Mat disparity =
+      aggregate_and_select(costs, cost_row_function, gray_l, config, *parked, kernel);
   remove_speckles(disparity, config);
   return disparity;
 }

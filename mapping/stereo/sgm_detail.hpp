@@ -52,6 +52,12 @@ inline int out_of_image_cost(const SgmConfig& c) {
                            gradient_cost(c.grad_cap, c.grad_cap, lambda_q4(c.lambda_grad)));
 }
 
+/// Whether the path costs fit in uint8: L_r(p, d) = C(p, d) + min(…) − min_k L_r(p − r, k) lies in
+/// [C, C + P2], so every L_r ≤ 255 when the largest cost + P2 ≤ 255 (the SIMD kernels then keep
+/// their row buffers in uint8: 64 disparities per AVX-512 vector, 32 per AVX2 one; the sums stay
+/// uint16). True for the defaults (62 + 15 + 120 = 197).
+inline bool narrow_entries_fit(const SgmConfig& c) { return out_of_image_cost(c) + c.p2 <= 255; }
+
 /// Per-pixel P2 for an intensity step |I(p) − I(p − r)| along a path (P2 adaptation):
 /// P2' = max(P1, round(P2 − slope·|ΔI|)), or P2 when adaptation is off. Indexed by |ΔI| ∈ [0, 255].
 std::vector<std::uint16_t> p2_table(const SgmConfig& c);
@@ -74,17 +80,54 @@ struct Volume {
   const T* get() const { return data.get(); }
 };
 
-/// Matching-cost volume C(x, y, d) as uint8, layout [y][x][d] with d padded to padded_disparities,
-/// written into `cost` (≥ W·H·D_p bytes). d ≥ max_disparity and matches outside the right image
-/// get out_of_image_cost.
-void cost_volume(const CensusImage& census_l, const CensusImage& census_r,
-                 const cv::Mat& gradient_l, const cv::Mat& gradient_r, const SgmConfig& config,
-                 int threads, Volume<std::uint8_t>& cost);
+/// Everything Eq. 1 needs to produce cost rows C(·, y, ·) of one image pair (read only, shared
+/// by the threads). Built by cost_inputs().
+struct CostInputs {
+  const CensusImage* census_l = nullptr;
+  const CensusImage* census_r = nullptr;
+  const cv::Mat* gradient_l = nullptr;  ///< CV_16S, epipolar_gradient of the left image
+  const cv::Mat* gradient_r = nullptr;
+  int max_disparity = 0, dp = 0;        ///< D and D rounded up to 16 (padded_disparities)
+  int grad_cap = 0, lambda_q4 = 0;      ///< cap and round(16 λ_grad) of gradient_cost
+  std::uint8_t invalid = 0;             ///< out_of_image_cost
+};
+CostInputs cost_inputs(const CensusImage& census_l, const CensusImage& census_r,
+                       const cv::Mat& gradient_l, const cv::Mat& gradient_r,
+                       const SgmConfig& config);
+
+/// Per-thread scratch of the cost rows: the right image's census and gradient row y reversed
+/// (j = W − 1 − x_r), so that the match q = p − d walks forward in memory as d grows, padded
+/// so that whole vectors may be read past the last match. load() once per row.
+struct ReversedRightRow {
+  int y = -1;
+  std::vector<std::uint64_t> census;
+  std::vector<std::int16_t> gradient;
+  void load(const CostInputs& in, int row);
+};
+
+/// Costs of pixels x ∈ [x_begin, x_end) of row y (= right.y, loaded):
+/// out[(x − x_begin)·D_p + d] = C(x, y, d) as uint8 (Eq. 1, matching_cost),
+/// out_of_image_cost for d ≥ max_disparity and for matches left of the right image (x − d < 0).
+using CostRowFunction = void (*)(const CostInputs& in, const ReversedRightRow& right,
+                                 int x_begin, int x_end, std::uint8_t* out);
+/// The build's baseline: AVX2 (nibble-table popcount, 16 disparities per vector) or portable C++.
+void cost_row(const CostInputs& in, const ReversedRightRow& right, int x_begin, int x_end,
+              std::uint8_t* out);
+/// AVX-512 VPOPCNTDQ + VBMI (64 disparities per vector); only when cost_row_avx512_supported().
+void cost_row_avx512(const CostInputs& in, const ReversedRightRow& right, int x_begin, int x_end,
+                     std::uint8_t* out);
+bool cost_row_avx512_supported();
 
 /// Winner-take-all with sub-pixel refinement, uniqueness and left-right check on one row of the
 /// aggregated cost S(x, d) = Σ_r L_r (Eq. 2), layout [x][d_padded]. Writes float disparity
 /// (NaN = rejected) into `out`. `S` is modified (padding lanes set to 0xFFFF).
 void select_row(std::uint16_t* S, int width, const SgmConfig& config, float* out);
+
+/// select_row in AVX-512BW (same results); only when
+/// aggregation_kernel_supported(AggregationKernel::avx512).
+void select_row_avx512(std::uint16_t* S, int width, const SgmConfig& config, float* out);
+using SelectRowFunction = void (*)(std::uint16_t* S, int width, const SgmConfig& config,
+                                   float* out);
 
 /// Parabola through (d−1, s_m), (d, s_0), (d+1, s_p): d + (s_m − s_p) / (2 (s_m + s_p − 2 s_0)).
 inline float subpixel_parabola(int d, int s_m, int s_0, int s_p) {
@@ -112,11 +155,12 @@ bool aggregation_kernel_supported(AggregationKernel kernel);
 AggregationKernel best_aggregation_kernel();
 
 /// Eq. 2 over all paths for the whole image: returns the disparity before speckle removal.
-/// `parked` (≥ W·H·D_p values) holds the partial sums handed between the two passes.
+/// Each aggregation pass computes its own cost rows (`cost_row`, no cost volume); `parked`
+/// (≥ W·H·D_p values) holds the partial sums handed between the two passes.
 /// Throws std::invalid_argument when `kernel` is not supported.
-cv::Mat aggregate_and_select(const Volume<std::uint8_t>& cost, const cv::Mat& gray_left,
-                             const SgmConfig& config, Volume<std::uint16_t>& parked,
-                             AggregationKernel kernel);
+cv::Mat aggregate_and_select(const CostInputs& costs, CostRowFunction cost_row,
+                             const cv::Mat& gray_left, const SgmConfig& config,
+                             Volume<std::uint16_t>& parked, AggregationKernel kernel);
 
 /// compute_disparity with an explicit aggregation kernel (tests compare every kernel).
 cv::Mat compute_disparity_with(const cv::Mat& left, const cv::Mat& right,

@@ -1,6 +1,7 @@
 /// `planecell eval-stereo --dataset D --root DIR` — planecell SGM vs OpenCV StereoSGBM on every
 /// pair with ground truth under DIR (bad-1/2/4, D1, MAE, density, time), plus the dense planecell
-/// disparity and, on pairs with a camera, the 3D accuracy within 10/20/50/100 cm (paper Table 1).
+/// disparity and, on pairs with a camera, the 3D accuracy within 10/20/50/100 cm (paper Table 1);
+/// on synthetic pairs also the planecells' boundary recall and cells on one GT surface.
 #include <spdlog/spdlog.h>
 
 #include <fstream>
@@ -9,15 +10,27 @@
 #include "core/error.hpp"
 #include "io/stereo_datasets.hpp"
 #include "services/commands/commands.hpp"
+#include "services/eval/segmentation_metrics.hpp"
+#include "services/eval/stereo_markdown.hpp"
 #include "services/eval/stereo_metrics.hpp"
+#include "services/report/markdown.hpp"
 
 namespace planecell::services {
 namespace {
 
 struct EvalStereoOptions {
-  std::string dataset, root, json;
+  std::string dataset, root, json, report_md;
   int max_pairs = 0;
 };
+
+/// The command line that reproduces this evaluation (printed under every markdown table).
+std::string command_line(const CommandContext& context, const EvalStereoOptions& o) {
+  std::string line = "planecell";
+  if (!context.config_path.empty()) line += " --config " + report::shell_quote(context.config_path);
+  line += " eval-stereo --dataset " + report::shell_quote(o.dataset) + " --root " + report::shell_quote(o.root);
+  if (o.max_pairs > 0) line += " --max-pairs " + std::to_string(o.max_pairs);
+  return line;
+}
 
 int run_eval_stereo(const CommandContext& context, const EvalStereoOptions& options) {
   if (options.max_pairs < 0) throw ConfigError("--max-pairs must be >= 0 (0 = all)");
@@ -33,13 +46,27 @@ int run_eval_stereo(const CommandContext& context, const EvalStereoOptions& opti
   std::vector<eval::PairResult> results;
   for (const auto& ref : refs) {
     spdlog::info("eval-stereo: {}", ref.name);
-    results.push_back(eval::evaluate_pair(io::load_stereo_sample(ref), methods));
+    const io::StereoSample sample = io::load_stereo_sample(ref);
+    results.push_back(eval::evaluate_pair(sample, methods));
+    // Synthetic pairs carry GT surface ids: score how the planecells follow the surfaces.
+    if (dataset == io::StereoDataset::kSynthetic) {
+      const cv::Mat surfaces = eval::synthetic_surface_ids(ref);
+      if (!surfaces.empty())
+        results.back().segmentation =
+            eval::planecell_segmentation(sample, surfaces, config.sgm, config.extraction);
+    }
   }
   std::cout << eval::format_table(results, methods);
   if (!options.json.empty()) {
     std::ofstream out(options.json);
     out << eval::format_json(options.dataset, results, methods);
     if (!out) throw StorageError("--json '" + options.json + "': cannot write");
+  }
+  if (!options.report_md.empty()) {
+    std::ofstream out(options.report_md);
+    out << eval::format_markdown(options.dataset, command_line(context, options), results, methods);
+    if (!out) throw StorageError("--report-md '" + options.report_md + "': cannot write");
+    spdlog::info("eval-stereo: markdown report -> {}", options.report_md);
   }
   return kExitOk;
 }
@@ -52,10 +79,14 @@ void add_eval_stereo_command(CLI::App& app, CommandContext& context) {
       "eval-stereo",
       "Accuracy and time of planecell SGM, the dense planecell disparity and OpenCV StereoSGBM on\n"
       "every pair with ground truth (3D accuracy within 10/20/50/100 cm when a camera is known).\n"
-      "Example: planecell eval-stereo --dataset middlebury --root data/middlebury --json m.json");
+      "Example: planecell eval-stereo --dataset middlebury --root data/middlebury --json m.json\n"
+      "         planecell eval-stereo --dataset kitti --root data/kitti2015 --report-md k15.md");
   command->add_option("--dataset", options->dataset, "middlebury, kitti or synthetic")->required();
   command->add_option("--root", options->root, "Folder searched recursively for pairs")->required();
   command->add_option("--json", options->json, "Also write the table as JSON");
+  command->add_option("--report-md", options->report_md,
+                      "Also write the tables as a markdown report (the style of `planecell bench`; "
+                      "bench --append FILE adds it to a bench report)");
   command->add_option("--max-pairs", options->max_pairs, "Evaluate at most N pairs (0 = all)");
   context.add(command,
               [options](const CommandContext& ctx) { return run_eval_stereo(ctx, *options); });

@@ -10,16 +10,14 @@
 #include "io/map_store.hpp"
 #include "io/ply_export.hpp"
 #include "services/commands/commands.hpp"
+#include "services/render/cell_colours.hpp"
 
 namespace planecell::services {
 namespace {
 
-/// Colour of a surface label: a fixed pseudo-random hue per id (golden-ratio hue steps).
+/// Colour of a surface label as 0..255 RGB (render::surface_colour_bgr, shared with bench's views).
 Eigen::Vector3f surface_colour(std::uint32_t surface) {
-  const double hue = std::fmod(static_cast<double>(surface) * 0.618033988749895, 1.0);
-  cv::Mat hsv(1, 1, CV_8UC3, cv::Scalar(hue * 179.0, 200, 230)), bgr;
-  cv::cvtColor(hsv, bgr, cv::COLOR_HSV2BGR);
-  const auto p = bgr.at<cv::Vec3b>(0, 0);
+  const cv::Vec3b p = render::surface_colour_bgr(surface);
   return {static_cast<float>(p[2]), static_cast<float>(p[1]), static_cast<float>(p[0])};
 }
 

@@ -17,6 +17,7 @@
 #include "mapping/planecell/extraction.hpp"
 #include "mapping/stereo/sgm.hpp"
 #include "services/commands/commands.hpp"
+#include "services/render/cell_overlay.hpp"
 
 namespace planecell::services {
 namespace {
@@ -28,34 +29,6 @@ struct ExtractOptions {
   std::optional<int> cells;
   std::optional<double> fx, baseline_m, cx, cy;
 };
-
-/// Cells in their mean colour blended over the image, boundaries white, vertices red, planeless
-/// cells darkened (like the paper's figures).
-cv::Mat make_overlay(const cv::Mat& bgr, const extraction::PlanecellFrame& frame) {
-  cv::Mat overlay = bgr.clone();
-  const cv::Mat& labels = frame.labels;
-  for (int v = 0; v < labels.rows; ++v) {
-    const auto* row = labels.ptr<std::int32_t>(v);
-    auto* out = overlay.ptr<cv::Vec3b>(v);
-    for (int u = 0; u < labels.cols; ++u) {
-      const Planecell& cell = frame.cells[row[u]];
-      const cv::Vec3b mean(cv::saturate_cast<uchar>(cell.mean_rgb.z()),
-                           cv::saturate_cast<uchar>(cell.mean_rgb.y()),
-                           cv::saturate_cast<uchar>(cell.mean_rgb.x()));
-      for (int c = 0; c < 3; ++c)
-        out[u][c] = cv::saturate_cast<uchar>(cell.has_plane ? 0.4 * out[u][c] + 0.6 * mean[c]
-                                                            : 0.3 * out[u][c]);
-      const bool edge = (u + 1 < labels.cols && row[u + 1] != row[u]) ||
-                        (v + 1 < labels.rows && labels.at<std::int32_t>(v + 1, u) != row[u]);
-      if (edge) out[u] = cv::Vec3b(255, 255, 255);
-    }
-  }
-  for (const Planecell& cell : frame.cells)
-    for (const auto& p : cell.vertices_px)
-      cv::circle(overlay, cv::Point(cvRound(p.x()), cvRound(p.y())), 1, cv::Scalar(0, 0, 255),
-                 cv::FILLED);
-  return overlay;
-}
 
 void write_text(const fs::path& path, const std::string& text) {
   std::ofstream out(path, std::ios::trunc);
@@ -114,7 +87,7 @@ int run_extract(const ExtractOptions& o, const CommandContext& ctx) {
   cv::Mat labels16;
   frame.labels.convertTo(labels16, CV_16U);
   io::write_image(out / "labels.png", labels16);
-  io::write_image(out / "overlay.png", make_overlay(left, frame));
+  io::write_image(out / "overlay.png", render::draw_cell_overlay(left, frame));
   const std::size_t triangles = io::write_planecells_ply(out / "cells.ply", frame.cells, true);
   {
     std::ofstream bin(out / "cells.bin", std::ios::binary | std::ios::trunc);

@@ -8,6 +8,8 @@
 
 #include "core/error.hpp"
 #include "services/commands/commands.hpp"
+#include "services/pipeline/heap_tuning.hpp"
+#include "services/pipeline/lcm_link.hpp"
 #include "services/replay.hpp"
 
 namespace planecell::services {
@@ -21,7 +23,10 @@ void add_replay_command(CLI::App& app, CommandContext& context) {
       "run with the same --map resumes after the last committed frame.");
   struct Args {
     std::string sequence, map, poses, frames, report;
-    bool voxel = false, ray_casting = false, no_progress = false, threads = false;
+    bool voxel = false, ray_casting = false, no_progress = false, threads = false, publish = false;
+    double rate_hz = 0.0;
+    std::size_t rss_every = 10;
+    std::string lcm_url;
   };
   auto args = std::make_shared<Args>();
   command->add_option("sequence", args->sequence, "Sequence folder (image_2/3 or image_0/1, calib.txt, poses)")
@@ -39,15 +44,27 @@ void add_replay_command(CLI::App& app, CommandContext& context) {
   command->add_flag("--threads", args->threads,
                     "Run the stages as the threaded pipeline (one thread per stage, bounded queues; "
                     "section 'pipeline' of the config); builds the same map");
+  command->add_option("--rate", args->rate_hz,
+                      "Feed frames at this rate like a camera (Hz, e.g. 10); end-to-end latency then "
+                      "counts from each frame's due time (0 = as fast as possible)")
+      ->check(CLI::NonNegativeNumber);
+  command->add_flag("--publish", args->publish,
+                    "Publish every frame's map update over LCM (PLANECELL_MAP_UPDATE, as `run` does)");
+  command->add_option("--lcm", args->lcm_url, "LCM URL for --publish (default: lcm.url of the config)");
+  command->add_option("--rss-every", args->rss_every,
+                      "Sample the process RSS every N frames into the report's rss_mb (0 = never)");
   command->footer(
       "Examples:\n"
       "  planecell replay /tmp/street --map /tmp/street.db --report /tmp/replay.json\n"
       "  planecell replay dataset/sequences/00 --frames 0:50 --voxel\n"
       "  planecell replay /tmp/street --threads --no-progress   # pipelined: frames/s, end-to-end latency\n"
+      "  planecell replay /tmp/street --threads --rate 10        # latency at camera rate\n"
       "Report: frames, cells, surfaces, map bytes (RAM), store bytes, bytes per frame, voxel\n"
-      "bytes/leaves (with --voxel), per-stage latency p50/p95/p99/max (ms).");
+      "bytes/leaves (with --voxel), per-stage latency p50/p95/p99/max (ms), per-stage CPU ms and\n"
+      "page faults (stage_cost), RSS over frames (rss_mb) and peak RSS.");
   context.add(command, [args](const CommandContext& ctx) {
     AppConfig config = ctx.load_app_config();
+    apply_heap_config(config.pipeline);  // per-frame buffers stay in the process (fewer faults)
     if (args->ray_casting) config.voxel.ray_casting = true;
     ReplayOptions options;
     options.sequence_dir = args->sequence;
@@ -58,6 +75,19 @@ void add_replay_command(CLI::App& app, CommandContext& context) {
     options.voxel = args->voxel || args->ray_casting;
     options.progress = !args->no_progress;
     options.threads = args->threads;
+    options.rate_hz = args->rate_hz;
+    options.memory_sample_every = args->rss_every;
+    std::unique_ptr<lcm::LCM> lcm;
+    if (args->publish) {
+      if (!args->lcm_url.empty()) config.lcm.url = args->lcm_url;
+      lcm = open_lcm(config.lcm.url);
+      options.sinks.want_delta = true;
+      options.sinks.publish = [&lcm, &config](const FrameWork& work) {
+        const auto utime = now_utime();
+        for (const auto& chunk : io::encode_map_update(work.delta, utime))
+          publish_message(*lcm, config.lcm.map_update_channel, chunk);
+      };
+    }
     const ReplayReport report = run_replay(options, config);
     std::cout << summary_text(report);
     if (!args->report.empty()) {

@@ -13,6 +13,7 @@
 #include "core/error.hpp"
 #include "io/map_store.hpp"
 #include "services/commands/commands.hpp"
+#include "services/pipeline/heap_tuning.hpp"
 #include "services/pipeline/lcm_link.hpp"
 #include "services/pipeline/pipeline.hpp"
 
@@ -28,12 +29,16 @@ class Intake {
 
   void on_stereo(const lcm::ReceiveBuffer* buffer, const std::string& channel) {
     try {
-      const auto message = io::decode_stereo_frame(bytes(buffer));
-      StereoFrame frame = io::from_lcm(message);
-      check_order(frame.frame_id, channel);
+      // End-to-end latency counts from the message's arrival: the decode (PNG or raw) is the
+      // "load" stage of a live frame.
+      FrameWork work;
+      work.ingest_time = StageClock::now();
+      work.timed("load", [&] { work.frame = io::from_lcm(io::decode_stereo_frame(bytes(buffer))); });
+      work.frame_id = work.frame.frame_id;
+      check_order(work.frame_id, channel);
       if (frames_.size() >= kMaxWaiting) frames_.erase(frames_.begin());  // oldest never got a pose
-      const auto id = frame.frame_id;
-      frames_[id] = std::move(frame);
+      const auto id = work.frame_id;
+      frames_[id] = std::move(work);
       try_submit(id);
     } catch (const InputError& e) {
       reject(channel, e.what());
@@ -72,10 +77,7 @@ class Intake {
     auto frame = frames_.find(id);
     auto pose = poses_.find(id);
     if (frame == frames_.end() || pose == poses_.end()) return;
-    FrameWork work;
-    work.ingest_time = StageClock::now();
-    work.frame_id = id;
-    work.frame = std::move(frame->second);
+    FrameWork work = std::move(frame->second);
     work.frame.pose = pose->second;
     // Everything older than this frame is stale now.
     frames_.erase(frames_.begin(), std::next(frame));
@@ -94,7 +96,7 @@ class Intake {
 
   Pipeline& pipeline_;
   std::set<std::uint64_t> committed_;
-  std::map<std::uint64_t, StereoFrame> frames_;
+  std::map<std::uint64_t, FrameWork> frames_;  ///< decoded, waiting for their pose
   std::map<std::uint64_t, Pose> poses_;
   std::optional<std::uint64_t> last_submitted_;
   std::size_t rejected_ = 0, resumed_ = 0;
@@ -128,6 +130,7 @@ void add_run_command(CLI::App& app, CommandContext& context) {
       "  planecell listen --count 20 --query 0,1,10");
   context.add(command, [args](const CommandContext& ctx) {
     AppConfig config = ctx.load_app_config();
+    apply_heap_config(config.pipeline);  // per-frame buffers stay in the process (fewer faults)
     if (!args->lcm_url.empty()) config.lcm.url = args->lcm_url;
     auto lcm = open_lcm(config.lcm.url);
 

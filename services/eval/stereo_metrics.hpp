@@ -4,6 +4,7 @@
 #include <array>
 #include <functional>
 #include <opencv2/core/mat.hpp>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -11,6 +12,7 @@
 #include "core/config/sgm_config.hpp"
 #include "core/stereo_camera.hpp"
 #include "io/stereo_datasets.hpp"
+#include "services/eval/segmentation_metrics.hpp"
 
 namespace planecell::services::eval {
 
@@ -59,6 +61,53 @@ struct PointErrors {
 /// Throws InputError when the sizes or types differ, ConfigError on an invalid camera.
 PointErrors evaluate_points(const cv::Mat& estimate, const cv::Mat& gt, const StereoCamera& camera);
 
+/// Calls `visit(u, v, distance_m)` for every GT pixel (row by row) with the 3D error of Table 1,
+/// distance_m = ‖X(u, v, d) − X(u, v, d_gt)‖ = |Z(d) − Z(d_gt)|·‖((u − c_x)/f_x, (v − c_y)/f_y, 1)‖,
+/// or NaN when the estimate has no point there (NaN or d ≤ 0). The one definition behind
+/// evaluate_points and point_accuracy_curve. Same errors as evaluate_points.
+void for_each_point_distance(const cv::Mat& estimate, const cv::Mat& gt, const StereoCamera& camera,
+                             const std::function<void(int u, int v, double distance_m)>& visit);
+
+/// Cumulative 3D accuracy curve (the paper's Fig. "Reconstruction accuracy"): at the thresholds
+/// x_k = k·max_m/steps (k = 0..steps), the share of GT pixels whose reconstructed point lies within
+/// x_k of its GT point (distance ≤ x_k). Pixels without a point, or farther than max_m, count
+/// only in the total, so a curve ends at most at the representation's density. Counts add over
+/// frames (pooled curves). The default grid (1 cm steps to 1 m) contains kPointRadiiM exactly.
+class AccuracyCurve {
+ public:
+  /// Throws ConfigError when max_m ≤ 0 or steps < 1.
+  explicit AccuracyCurve(double max_m = 1.0, int steps = 100);
+
+  /// One GT pixel: its point's distance to the GT point (m), NaN (or ∞) when it has no point.
+  void add(double distance_m);
+  /// Adds another curve's counts. Throws ConfigError when the grids differ.
+  AccuracyCurve& operator+=(const AccuracyCurve& other);
+
+  int steps() const { return static_cast<int>(bins_.size()) - 1; }
+  double max_m() const { return max_m_; }
+  /// x_k = k·max_m/steps (m).
+  double threshold_m(int k) const;
+  long gt_pixels() const { return gt_pixels_; }
+  /// GT pixels that have a point at all (any distance).
+  long with_point() const { return with_point_; }
+  /// GT pixels with distance ≤ x_k.
+  long within(int k) const;
+  /// 100·within(k)/gt_pixels; NaN when no GT pixel was added.
+  double within_pct(int k) const;
+  /// 100·with_point/gt_pixels (the density the curve is bounded by); NaN without GT pixels.
+  double density_pct() const;
+
+ private:
+  double max_m_;
+  std::vector<long> bins_;  ///< bins_[k]: distances in (x_{k−1}, x_k]; bins_[0]: distance 0
+  long gt_pixels_ = 0;
+  long with_point_ = 0;
+};
+
+/// The curve of one disparity map against GT (distances of for_each_point_distance).
+AccuracyCurve point_accuracy_curve(const cv::Mat& estimate, const cv::Mat& gt,
+                                   const StereoCamera& camera, double max_m = 1.0, int steps = 100);
+
 /// A stereo method under evaluation: name → function(sample) → CV_32F disparity (NaN = none).
 struct StereoMethod {
   std::string name;
@@ -92,6 +141,8 @@ struct PairResult {
   std::string pair;
   int max_disparity = 0;
   std::vector<MethodResult> methods;
+  /// Planecells vs GT surfaces (synthetic pairs; see segmentation_metrics.hpp), when scored.
+  std::optional<SegmentationScores> segmentation;
 };
 
 /// Runs every method on `sample` and scores it (in 3D too when the sample has a camera).
@@ -102,11 +153,11 @@ std::vector<MethodResult> pooled_results(const std::vector<PairResult>& pairs,
                                          const std::vector<StereoMethod>& methods);
 
 /// The side-by-side text table (per pair and overall), followed by the 3D accuracy table when
-/// some pair has a camera.
+/// some pair has a camera and the planecell segmentation lines when some pair has them.
 std::string format_table(const std::vector<PairResult>& pairs,
                          const std::vector<StereoMethod>& methods);
 
-/// The same table as JSON.
+/// The same table as JSON ("segmentation" in each scored pair, "segmentation_overall" pooled).
 std::string format_json(const std::string& dataset, const std::vector<PairResult>& pairs,
                         const std::vector<StereoMethod>& methods);
 

@@ -25,7 +25,7 @@ map::GlobalMap mirror_to_map(const io::MapMirror& mirror, const MapConfig& confi
     surface.footprint = map::Footprint(config.footprint_resolution_m);
     for (const Planecell* cell : cells) {
       const double area = map::polygon_area_m2(cell->vertices_m);
-      surface.footprint.add_polygon(map::to_polygon2(cell->vertices_m, surface.basis));
+      surface.footprint.add_polygon(map::project_to_basis(cell->vertices_m, surface.basis));
       surface.bounds.extend(map::bounds_of(cell->vertices_m));
       surface.observed_area_m2 += area;
       surface.mean_rgb += static_cast<float>(area) * cell->mean_rgb;

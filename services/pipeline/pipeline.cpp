@@ -98,6 +98,7 @@ Pipeline::Pipeline(const AppConfig& config, PipelineMode mode, map::GlobalMap ma
   stages_.push_back({"transform", [this](FrameWork& w) {
                        transform_stage(w);
                        if (voxels_) voxel_stage(w, *voxels_, config_.voxel);
+                       if (sinks_.keep_images) return;
                        // Later stages need only the world cells: free the images early.
                        w.frame.left.release();
                        w.frame.right.release();
@@ -222,6 +223,7 @@ void Pipeline::publish_loop() {
     const std::lock_guard lock(stats_mutex_);
     for (const auto& [stage, ms] : item->stage_ms) latency_.add(stage, ms);
     latency_.add("end_to_end", e2e_ms);
+    costs_.add(*item);
     ++frames_done_;
   }
 }
@@ -237,6 +239,7 @@ PipelineStats Pipeline::stats() const {
   out.frames_done = frames_done_;
   out.frames_failed = frames_failed_;
   out.latency = latency_.summaries();
+  out.stage_cost = costs_.summaries();
   out.map_cells = map_cells_;
   out.map_surfaces = map_surfaces_;
   return out;

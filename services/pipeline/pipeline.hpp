@@ -21,6 +21,7 @@
 #include "core/config/app_config.hpp"
 #include "mapping/map/global_map.hpp"
 #include "services/latency_stats.hpp"
+#include "services/pipeline/stage_cost_log.hpp"
 #include "services/pipeline/stages.hpp"
 
 namespace planecell::io {
@@ -47,6 +48,8 @@ struct PipelineStats {
   std::vector<std::pair<std::string, std::size_t>> queue_depths;  ///< frames waiting per queue
   /// Per stage ("load" when given, "sgm", ..., "store", "voxel") and "end_to_end" (ingest → publish), ms.
   std::vector<std::pair<std::string, LatencySummary>> latency;
+  /// Per stage: CPU time of its thread and page faults per frame (wall time minus waiting).
+  std::vector<std::pair<std::string, StageCostSummary>> stage_cost;
   std::size_t map_cells = 0;  ///< after the last merged frame
   std::size_t map_surfaces = 0;
 };
@@ -58,6 +61,9 @@ using PublishFn = std::function<void(const FrameWork& work)>;
 struct PipelineSinks {
   PublishFn publish;        ///< may be empty
   bool want_delta = false;  ///< merge stage copies its changes into FrameWork::delta
+  /// Keep the frame's images, disparity and label images until publish (e.g. for a per-frame
+  /// observer that scores them); by default the transform stage frees them.
+  bool keep_images = false;
 };
 
 class Pipeline {
@@ -121,6 +127,7 @@ class Pipeline {
   std::size_t frames_in_ = 0, frames_done_ = 0, frames_failed_ = 0;
   std::size_t map_cells_ = 0, map_surfaces_ = 0;
   LatencyLog latency_;
+  StageCostLog costs_;
 };
 
 }  // namespace planecell::services

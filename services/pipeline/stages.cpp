@@ -48,6 +48,7 @@ void merge_stage(FrameWork& work, map::GlobalMap& map, bool want_delta) {
     work.map_cells = map.cells().size();
     if (want_delta) work.delta = make_delta(work.merge, map);
   });
+  work.map_bytes = map.map_bytes();  // O(cells), outside the merge time
 }
 
 void store_stage(FrameWork& work, io::MapStore& store, const map::GlobalMap& map) {

@@ -19,6 +19,7 @@
 #include "mapping/map/crf_merger.hpp"
 #include "mapping/map/global_map.hpp"
 #include "mapping/planecell/extraction.hpp"
+#include "services/pipeline/thread_usage.hpp"
 
 namespace planecell::io {
 class MapStore;
@@ -36,6 +37,13 @@ using StageClock = std::chrono::steady_clock;
 /// read it while the merge stage already integrates the next frame.
 using MapDelta = io::MapUpdate;
 
+/// What one stage run cost its thread (see thread_usage.hpp): CPU time and first-touch page faults.
+/// A stage that hands work to extra threads (SGM with sgm.threads ≥ 2) counts only its own.
+struct StageCost {
+  double cpu_ms = 0.0;
+  std::int64_t minor_faults = 0;
+};
+
 /// One frame on its way through the pipeline.
 struct FrameWork {
   std::uint64_t frame_id = 0;
@@ -48,15 +56,24 @@ struct FrameWork {
   map::MergeReport merge;                ///< merge: what integrate() changed
   MapDelta delta;                        ///< merge (when asked for): copy of the changes
   std::size_t map_cells = 0;             ///< merge: cells in the map after this frame
+  std::size_t map_bytes = 0;             ///< merge: GlobalMap::map_bytes() after this frame
   /// Wall time of each stage run on this frame, in order ("sgm", "extract", ...), ms.
   std::vector<std::pair<std::string, double>> stage_ms;
+  /// CPU time and page faults of the same stage runs, same order as stage_ms.
+  std::vector<std::pair<std::string, StageCost>> stage_cost;
 
-  /// Runs `fn()` and appends its wall time under `stage`.
+  /// Runs `fn()` and appends its wall time under `stage` (stage_ms) and what it cost the calling
+  /// thread (stage_cost).
   template <class Fn>
   void timed(const char* stage, Fn&& fn) {
+    const ThreadUsage usage_before = thread_usage();
     const auto start = StageClock::now();
     fn();
-    stage_ms.emplace_back(stage, std::chrono::duration<double, std::milli>(StageClock::now() - start).count());
+    const auto end = StageClock::now();
+    const ThreadUsage usage_after = thread_usage();
+    stage_ms.emplace_back(stage, std::chrono::duration<double, std::milli>(end - start).count());
+    stage_cost.emplace_back(stage, StageCost{usage_after.cpu_ms - usage_before.cpu_ms,
+                                             usage_after.minor_faults - usage_before.minor_faults});
   }
 };
 

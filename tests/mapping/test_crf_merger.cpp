@@ -170,5 +170,74 @@ TEST(IncrementalMerge, BridgingCellMergesTwoSurfacesAndReportsEvent) {
   EXPECT_NEAR(map.surface(first)->area_m2, 3.0, 1e-6);
 }
 
+TEST(PlaneMomentsTest, RmsDistanceFromMomentsEqualsDirectSum) {
+  // Points at heights 0.1 and −0.3 above y = 0 with weights 1 and 3: RMS = √((0.01 + 3·0.09)/4).
+  PlaneMoments m;
+  m.add_polygon(std::vector<Eigen::Vector3f>{{0, 0.1f, 0}, {1, 0.1f, 0}}, 2.0);
+  m.add_polygon(std::vector<Eigen::Vector3f>{{0, -0.3f, 5}, {2, -0.3f, 1}, {1, -0.3f, 3}}, 6.0);
+  Plane3 ground;
+  ground.normal = Eigen::Vector3d::UnitY();
+  EXPECT_NEAR(m.rms_distance_m(ground), std::sqrt((0.01 + 3 * 0.09) / 4), 1e-6);
+}
+
+TEST(LabelStateTest, NoisyCellWeighsLessAndSigmaIsTheHarmonicMean) {
+  MapConfig config;
+  // A precise (σ = 0.05) and a noisy (σ = 0.5) 1 m² cell: weights 400 and 4.
+  Planecell precise = rect_cell(0, {0, 1.5f, 5}, kX, kZ, 3);
+  Planecell noisy = rect_cell(1, {1, 1.7f, 5}, kX, kZ, 3);  // 20 cm higher
+  precise.depth_sigma_m = 0.05f;
+  noisy.depth_sigma_m = 0.5f;
+  LabelState label = state_of_cell(precise, 1.0, config.residual_scale_m);
+  fold_label(label, state_of_cell(noisy, 1.0, config.residual_scale_m));
+  EXPECT_NEAR(label.moments.weight, 400.0 + 4.0, 1e-4);  // σ are floats
+  // σ_eff = √(Σ area / Σ area/σ²) = √(2 / 404).
+  EXPECT_NEAR(label.sigma_m(), std::sqrt(2.0 / 404.0), 1e-6);
+  // Height of the fitted plane above the precise cell's centre (x = 0.5): with equal weights the
+  // least-squares plane through the two squares is h ≈ 1.6 + 0.1·(x − 1), i.e. 1.55 there (5 cm
+  // off); weighted 100:1 it stays on the precise cell.
+  auto height_at_precise_centre = [](const LabelState& s) {
+    const Plane3& p = s.plane;  // n·X + e = 0 → y = −(n_x·x + n_z·z + e) / n_y
+    return -(p.normal.x() * 0.5 + p.normal.z() * 5.5 + p.offset) / p.normal.y();
+  };
+  EXPECT_NEAR(height_at_precise_centre(label), 1.5, 0.003);
+  noisy.depth_sigma_m = 0.05f;
+  LabelState equal = state_of_cell(precise, 1.0, config.residual_scale_m);
+  fold_label(equal, state_of_cell(noisy, 1.0, config.residual_scale_m));
+  EXPECT_NEAR(height_at_precise_centre(equal), 1.55, 1e-3);  // orthogonal fit: ~vertical regression
+}
+
+TEST(IncrementalMerge, NoisyCellJoinsWithinItsNoiseButDoesNotBridgeParallelSurfaces) {
+  // Frame 1: a road (y = 1.5) and a sidewalk 25 cm higher, three precise cells each, side by
+  // side along x with a 0.5 m gap between them (no image adjacency): two mature surfaces.
+  GlobalMap map;
+  std::vector<Planecell> frame1;
+  for (std::uint32_t k = 0; k < 3; ++k) {
+    frame1.push_back(rect_cell(k, {0, 1.5f, 5.0f + k}, kX, kZ, 3));
+    frame1.push_back(rect_cell(k + 3, {1.5f, 1.25f, 5.0f + k}, kX, kZ, 3));
+  }
+  for (auto& cell : frame1) cell.depth_sigma_m = 0.03f;
+  const std::vector<LabelEdge> chain = {{0, 1, 20}, {1, 2, 20}, {3, 4, 20}, {4, 5, 20}};
+  map.integrate(1, Pose::Identity(), frame1, chain);
+  ASSERT_EQ(map.surfaces().size(), 2u);
+  const std::uint32_t road = map.cells().at(0).surface, sidewalk = map.cells().at(1).surface;
+  ASSERT_NE(road, sidewalk);
+  // Frame 2: one noisy cell (σ = 0.4 m) halfway between the two heights, spanning the gap and
+  // touching both: within its own noise of either plane, so it joins one of them, but the two
+  // precise surfaces stay apart (their planes step by 25 cm).
+  Planecell bridge = rect_cell(0, {0.5f, 1.375f, 5.5f}, kX, kZ, 3);
+  bridge.depth_sigma_m = 0.4f;
+  const auto r2 = map.integrate(2, Pose::Identity(), std::vector<Planecell>{bridge});
+  EXPECT_TRUE(r2.surface_merges.empty());
+  EXPECT_EQ(map.surfaces().size(), 2u);
+  ASSERT_EQ(r2.cell_surfaces.size(), 1u);
+  EXPECT_TRUE(r2.cell_surfaces[0] == road || r2.cell_surfaces[0] == sidewalk);
+  // The same cell with a precise plane (σ = 0.03 m) is 12.5 cm off both: a surface of its own.
+  bridge.depth_sigma_m = 0.03f;
+  const auto r3 = map.integrate(3, Pose::Identity(), std::vector<Planecell>{bridge});
+  EXPECT_TRUE(r3.surface_merges.empty());
+  EXPECT_NE(r3.cell_surfaces[0], road);
+  EXPECT_NE(r3.cell_surfaces[0], sidewalk);
+}
+
 }  // namespace
 }  // namespace planecell::map

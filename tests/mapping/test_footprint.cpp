@@ -11,11 +11,8 @@
 namespace planecell::map {
 namespace {
 
-Polygon2 rectangle(double s0, double t0, double s1, double t1) {
-  Polygon2 p;
-  for (auto [s, t] : {std::pair{s0, t0}, {s0, t1}, {s1, t1}, {s1, t0}, {s0, t0}})
-    p.outer().push_back(Point2(s, t));
-  return p;
+std::vector<Eigen::Vector2d> rectangle(double s0, double t0, double s1, double t1) {
+  return {{s0, t0}, {s0, t1}, {s1, t1}, {s1, t0}};
 }
 
 TEST(Footprint, SquareCoversTheBitsWhoseCentresLieInside) {
@@ -50,8 +47,7 @@ TEST(Footprint, SquareAcrossTileSeamsAndNegativeCoordinates) {
 
 TEST(Footprint, TriangleAreaWithinOneBitRowOfTheExactArea) {
   Footprint f(0.05);
-  Polygon2 tri;
-  for (auto [s, t] : {std::pair{0.0, 0.0}, {0.0, 4.0}, {4.0, 0.0}, {0.0, 0.0}}) tri.outer().push_back(Point2(s, t));
+  const std::vector<Eigen::Vector2d> tri{{0.0, 0.0}, {0.0, 4.0}, {4.0, 0.0}};
   const double area = f.add_polygon(tri);
   // Exact area 8 m²; the legs lie on bit edges (no error), and each bit the hypotenuse (5.66 m)
   // crosses may fall in or out: |error| ≤ 5.66 m / res · res² ≈ 0.283 m² plus the bits it only

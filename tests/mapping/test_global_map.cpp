@@ -52,7 +52,9 @@ TEST(PoseTransform, RejectsBadPosesAndDropsPlanelessCells) {
 }
 
 TEST(GlobalMapTest, NeighbourhoodQueryReturnsExactlyTheCellsInTheBox) {
-  GlobalMap map;
+  MapConfig config;
+  config.max_range_m = 40.0;  // cells up to 20.6 m from the camera
+  GlobalMap map(config);
   // Five 1 m cells of distinct colours, far apart (no merging), at x = −20, −10, 0, 10, 20.
   std::vector<Planecell> cells;
   for (std::uint32_t k = 0; k < 5; ++k)

@@ -219,6 +219,24 @@ TEST_P(PlanecellExtraction, RegionWithoutDisparityIsPlaneless) {
                    1.0 - static_cast<double>(planeless) / frame_.cells.size());
 }
 
+TEST_P(PlanecellExtraction, OutliersAreTheValidDisparitiesOffTheirCellPlane) {
+  ASSERT_EQ(frame_.outliers.type(), CV_8U);
+  ASSERT_EQ(frame_.outliers.size(), frame_.labels.size());
+  int marked = 0;
+  for (int v = 0; v < frame_.labels.rows; ++v)
+    for (int u = 0; u < frame_.labels.cols; ++u) {
+      const Planecell& cell = frame_.cells[frame_.labels.at<int>(v, u)];
+      const float d = scene_.disparity.at<float>(v, u);
+      const bool off = !std::isnan(d) && cell.has_plane &&
+                       std::abs(cell.disparity_plane.at(u, v) - d) > config_.inlier_threshold_px;
+      ASSERT_EQ(frame_.outliers.at<std::uint8_t>(v, u), off ? 255 : 0)
+          << "pixel (" << u << ", " << v << ")";
+      marked += off;
+    }
+  // Clean planes: only pixels at a cell that straddles a depth edge; never a large share.
+  EXPECT_LT(marked, frame_.labels.total() / 20);
+}
+
 TEST_P(PlanecellExtraction, VerticesLieOnTheCellPlaneIn3D) {
   for (const Planecell& cell : frame_.cells) {
     if (!cell.has_plane) continue;

@@ -190,5 +190,42 @@ TEST(DenseDisparity, PlanelessCellTakesTheFartherNeighbourPlane) {
   EXPECT_FLOAT_EQ(unfilled.at<float>(1, 8), 10.0f);
 }
 
+TEST(DenseDisparity, PlanelessCellsAreFilledAcrossEveryEdgeAndInRings) {
+  // Cell 0 has the plane d = 7, cell 1 none. Returns the filled dense map.
+  auto fill = [](int w, int h, const std::vector<std::int32_t>& values, int n) {
+    cv::Mat labels(h, w, CV_32S);
+    std::copy(values.begin(), values.end(), labels.ptr<std::int32_t>(0));
+    std::vector<Planecell> cells(n);
+    cells[0].has_plane = true;
+    cells[0].disparity_plane = {0.0, 0.0, 7.0};
+    return render_dense_disparity(labels, cells, true);
+  };
+  // Cell 1 touches cell 0 only across its top edge, then only across its left edge.
+  const cv::Mat below = fill(3, 2, {0, 0, 0, 1, 1, 1}, 2);
+  EXPECT_FLOAT_EQ(below.at<float>(1, 1), 7.0f);
+  const cv::Mat right = fill(2, 3, {0, 1, 0, 1, 0, 1}, 2);
+  EXPECT_FLOAT_EQ(right.at<float>(2, 1), 7.0f);
+  // Cell 2 is enclosed by the planeless ring of cell 1: filled in the second round.
+  const cv::Mat ring = fill(5, 5, {0, 0, 0, 0, 0,  //
+                                   0, 1, 1, 1, 0,  //
+                                   0, 1, 2, 1, 0,  //
+                                   0, 1, 1, 1, 0,  //
+                                   0, 0, 0, 0, 0},
+                            3);
+  for (int v = 0; v < 5; ++v)
+    for (int u = 0; u < 5; ++u) EXPECT_FLOAT_EQ(ring.at<float>(v, u), 7.0f) << u << ", " << v;
+}
+
+TEST(DenseDisparity, RejectsLabelsOutsideTheCells) {
+  std::vector<Planecell> cells(2);
+  cells[0].has_plane = cells[1].has_plane = true;
+  cv::Mat labels(3, 4, CV_32S, cv::Scalar(1));
+  EXPECT_NO_THROW(render_dense_disparity(labels, cells, true));
+  labels.at<std::int32_t>(2, 3) = 2;
+  EXPECT_THROW(render_dense_disparity(labels, cells, true), InputError);
+  labels.at<std::int32_t>(2, 3) = -1;
+  EXPECT_THROW(render_dense_disparity(labels, cells, false), InputError);
+}
+
 }  // namespace
 }  // namespace planecell::extraction

@@ -88,6 +88,8 @@ struct Variant {
   int threads;
   bool adaptive_p2;
   int census_w, census_h;
+  int p2 = SgmConfig{}.p2;
+  int uniqueness_ratio = SgmConfig{}.uniqueness_ratio;
 };
 
 class SgmVsReference : public ::testing::TestWithParam<Variant> {};
@@ -101,6 +103,8 @@ TEST_P(SgmVsReference, BitExactOnRandomImages) {
   config.p2_adaptive = v.adaptive_p2;
   config.census_width = v.census_w;
   config.census_height = v.census_h;
+  config.p2 = v.p2;
+  config.uniqueness_ratio = v.uniqueness_ratio;
   // Pure noise (no scene) and a shifted texture (a real match), both 96×64.
   cv::Mat noise_l(64, 96, CV_8UC1), noise_r(64, 96, CV_8UC1);
   cv::RNG rng(7);
@@ -135,17 +139,113 @@ TEST_P(SgmVsReference, BitExactOnRandomImages) {
   }
 }
 
+// The SIMD kernels keep uint8 row buffers when the largest cost + P2 ≤ 255 (AVX2 also needs D_p a
+// multiple of 32) and uint16 ones otherwise: P2 = 250 (with 9×7 census: 77 + 250) and, for AVX2,
+// D = 37, 40, 48 take the uint16 paths, the others the uint8 ones.
 INSTANTIATE_TEST_SUITE_P(
     Variants, SgmVsReference,
     ::testing::Values(Variant{32, 8, 1, true, 9, 7}, Variant{64, 8, 2, true, 9, 7},
                       Variant{64, 4, 2, false, 5, 5}, Variant{40, 8, 2, false, 5, 5},
-                      Variant{23, 4, 1, true, 9, 7}, Variant{48, 8, 2, true, 9, 7}),
+                      Variant{23, 4, 1, true, 9, 7}, Variant{48, 8, 2, true, 9, 7},
+                      Variant{64, 8, 1, true, 9, 7, 250}, Variant{40, 4, 2, false, 9, 7, 250},
+                      Variant{48, 8, 2, true, 9, 7, 120, 5},
+                      Variant{37, 8, 1, false, 5, 5, 250, 10}),
     [](const auto& info) {
       const Variant& v = info.param;
       return "D" + std::to_string(v.max_disparity) + "_paths" + std::to_string(v.paths) + "_t" +
              std::to_string(v.threads) + (v.adaptive_p2 ? "_adaptiveP2" : "_fixedP2") + "_census" +
-             std::to_string(v.census_w) + "x" + std::to_string(v.census_h);
+             std::to_string(v.census_w) + "x" + std::to_string(v.census_h) + "_P2_" +
+             std::to_string(v.p2) + "_unique" + std::to_string(v.uniqueness_ratio);
     });
+
+TEST(SgmKernels, BothRowBufferWidthsAreCoveredByTheVariants) {
+  SgmConfig narrow;
+  EXPECT_TRUE(detail::narrow_entries_fit(narrow));
+  SgmConfig wide;
+  wide.p2 = 250;
+  EXPECT_FALSE(detail::narrow_entries_fit(wide));
+}
+
+/// Every cost-row kernel the machine runs gives matching_cost (Eq. 1) for every pixel and
+/// disparity, out_of_image_cost left of the right image and for the padding d ≥ D. Each image is
+/// 150 px wide so that the left border (x < D) and whole-row chunks are both covered.
+TEST(SgmKernels, CostRowsMatchTheScalarFormula) {
+  cv::Mat left(9, 150, CV_8UC1), right(9, 150, CV_8UC1);
+  cv::RNG rng(3);
+  rng.fill(left, cv::RNG::UNIFORM, 0, 256);
+  rng.fill(right, cv::RNG::UNIFORM, 0, 256);
+  for (const int d_max : {16, 37, 64, 100, 128}) {
+    for (const auto& [lambda, cap] : {std::pair{0.5, 30}, std::pair{8.0, 30}, std::pair{1.5, 63},
+                                      std::pair{0.75, 200}}) {
+      SgmConfig c;
+      c.max_disparity = d_max;
+      c.lambda_grad = lambda;  // 8: the gradient term alone saturates the uint8 cost
+      c.grad_cap = cap;
+      const auto census_l = detail::census_transform(left, 9, 7, 1);
+      const auto census_r = detail::census_transform(right, 9, 7, 1);
+      const cv::Mat grad_l = detail::epipolar_gradient(left);
+      const cv::Mat grad_r = detail::epipolar_gradient(right);
+      const auto in = detail::cost_inputs(census_l, census_r, grad_l, grad_r, c);
+      std::vector<detail::CostRowFunction> kernels = {&detail::cost_row};
+      if (detail::cost_row_avx512_supported()) kernels.push_back(&detail::cost_row_avx512);
+      for (const auto kernel : kernels) {
+        std::vector<std::uint8_t> row(static_cast<std::size_t>(left.cols) * in.dp, 0);
+        detail::ReversedRightRow right_row;
+        int mismatches = 0, saturated = 0;
+        for (int y = 0; y < left.rows; ++y) {
+          right_row.load(in, y);
+          // In chunks of 37 pixels, as the passes ask for them (a chunk starts at out).
+          for (int x0 = 0; x0 < left.cols; x0 += 37)
+            kernel(in, right_row, x0, std::min(left.cols, x0 + 37),
+                   row.data() + static_cast<std::size_t>(x0) * in.dp);
+          for (int x = 0; x < left.cols; ++x)
+            for (int d = 0; d < in.dp; ++d) {
+              const int expected =
+                  (d >= d_max || x - d < 0)
+                      ? detail::out_of_image_cost(c)
+                      : detail::matching_cost(census_l.at(x, y), census_r.at(x - d, y),
+                                              grad_l.at<std::int16_t>(y, x),
+                                              grad_r.at<std::int16_t>(y, x - d), c.grad_cap,
+                                              detail::lambda_q4(c.lambda_grad));
+              const int got = row[static_cast<std::size_t>(x) * in.dp + d];
+              mismatches += got != expected ? 1 : 0;
+              saturated += expected == 255 ? 1 : 0;
+            }
+        }
+        EXPECT_EQ(mismatches, 0) << "D " << d_max << " lambda " << lambda << " cap " << cap << " kernel "
+                                 << (kernel == &detail::cost_row ? "baseline" : "avx512");
+        if (detail::out_of_image_cost(c) == 255) {  // the saturation is exercised
+          EXPECT_GT(saturated, 0);
+        }
+      }
+    }
+  }
+}
+
+/// The census descriptor against its definition (bit w·h − 2 − k set when the k-th window
+/// pixel, row-major without the centre, is darker than the centre; clamped border).
+TEST(SgmKernels, CensusMatchesItsDefinition) {
+  cv::Mat image(23, 77, CV_8UC1);
+  cv::RNG rng(5);
+  rng.fill(image, cv::RNG::UNIFORM, 0, 8);  // few grey levels: many ties (not darker)
+  for (const auto& [w, h] : {std::pair{9, 7}, std::pair{5, 5}, std::pair{3, 3}, std::pair{13, 5}}) {
+    const auto census = detail::census_transform(image, w, h, 2);
+    int mismatches = 0;
+    for (int y = 0; y < image.rows; ++y)
+      for (int x = 0; x < image.cols; ++x) {
+        std::uint64_t bits = 0;
+        for (int dy = -h / 2; dy <= h / 2; ++dy)
+          for (int dx = -w / 2; dx <= w / 2; ++dx) {
+            if (dx == 0 && dy == 0) continue;
+            const int qx = std::clamp(x + dx, 0, image.cols - 1);
+            const int qy = std::clamp(y + dy, 0, image.rows - 1);
+            bits = (bits << 1) | (image.at<std::uint8_t>(qy, qx) < image.at<std::uint8_t>(y, x));
+          }
+        mismatches += census.at(x, y) != bits ? 1 : 0;
+      }
+    EXPECT_EQ(mismatches, 0) << w << "x" << h;
+  }
+}
 
 // ---- rendered scenes with known disparity ---------------------------------------------------
 

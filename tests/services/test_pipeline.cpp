@@ -57,6 +57,52 @@ TEST_F(PipelineTest, ThreadedReplayBuildsTheSameMapAsTheSingleThreadedOne) {
     EXPECT_EQ(counts[stage], 6u) << stage;
 }
 
+TEST_F(PipelineTest, ThreadedReplayReportsStageCostsAndMemoryOverFrames) {
+  ReplayOptions o = options("costs.db", true);
+  o.memory_sample_every = 2;
+  const ReplayReport report = run_replay(o, config_);
+  std::map<std::string, StageCostSummary> costs(report.stage_cost.begin(), report.stage_cost.end());
+  for (const char* stage : {"load", "sgm", "extract", "transform", "merge", "store"}) {
+    ASSERT_TRUE(costs.contains(stage)) << stage;
+    EXPECT_EQ(costs[stage].cpu.count, 6u) << stage;
+    EXPECT_GT(costs[stage].cpu.max_ms, 0.0) << stage;  // every stage burns some CPU on its thread
+    EXPECT_GE(costs[stage].minor_faults_mean, 0.0) << stage;
+  }
+  // RSS before the first frame, after frames 2, 4 and 6 (the last sample is also the end).
+  ASSERT_EQ(report.memory.size(), 4u);
+  for (std::size_t i = 0; i < report.memory.size(); ++i) {
+    EXPECT_EQ(report.memory[i].frames, 2 * i);
+    EXPECT_GT(report.memory[i].rss_bytes, 0u);
+    if (i > 0) EXPECT_GE(report.memory[i].elapsed_s, report.memory[i - 1].elapsed_s);
+  }
+  EXPECT_EQ(report.memory.back().map_bytes, report.map_bytes);
+  EXPECT_GE(report.peak_rss_bytes, report.memory.back().rss_bytes);
+}
+
+TEST_F(PipelineTest, PacedThreadedReplayFeedsFramesAtTheRateAndBuildsTheSameMap) {
+  ReplayOptions paced = options("paced.db", true);
+  paced.rate_hz = 40.0;  // frame k of the run is due at k / 40 s: 6 frames take at least 125 ms
+  paced.sinks.want_delta = true;
+  std::vector<std::uint64_t> published;
+  paced.sinks.publish = [&](const FrameWork& work) {
+    EXPECT_EQ(work.delta.frame_id, work.frame_id);
+    published.push_back(work.frame_id);
+  };
+  const ReplayReport report = run_replay(paced, config_);
+  EXPECT_EQ(report.rate_hz, 40.0);
+  EXPECT_GE(report.wall_s, 5.0 / 40.0);
+  EXPECT_EQ(published, (std::vector<std::uint64_t>{0, 1, 2, 3, 4, 5}));
+  run_replay(options("unpaced.db", false), config_);
+  EXPECT_TRUE(io::load_map(io::MapStore(scratch_ / "paced.db"))
+                  .same_content(io::load_map(io::MapStore(scratch_ / "unpaced.db"))));
+}
+
+TEST_F(PipelineTest, ReplayRejectsANegativeRate) {
+  ReplayOptions o = options("negative.db", true);
+  o.rate_hz = -1.0;
+  EXPECT_THROW(run_replay(o, config_), ConfigError);
+}
+
 TEST_F(PipelineTest, ThreadedReplayResumesAStoreLikeTheSingleThreadedRun) {
   ReplayOptions first_half = options("split.db", true);
   first_half.last_frame = 3;
