@@ -1,5 +1,6 @@
 #include "io/image_io.hpp"
 
+#include <cctype>
 #include <cstring>
 #include <fstream>
 #include <opencv2/imgcodecs.hpp>
@@ -28,12 +29,51 @@ void check_pixels(const std::filesystem::path& path, std::int64_t width, std::in
                      std::to_string(max_pixels) + " pixels");
 }
 
+/// The image formats planecell reads, recognised by their first bytes: PNG, JPEG and binary or
+/// ASCII PNM (P1–P6). OpenCV would also try its other decoders (DICOM, HDR, TIFF, …) on anything
+/// else, and a corrupt file can then claim gigabytes before any size check could see it.
+bool has_supported_signature(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  unsigned char head[8] = {};
+  in.read(reinterpret_cast<char*>(head), sizeof(head));
+  const auto got = in.gcount();
+  static const unsigned char kPng[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
+  if (got >= 8 && std::memcmp(head, kPng, 8) == 0) return true;
+  if (got >= 3 && head[0] == 0xFF && head[1] == 0xD8 && head[2] == 0xFF) return true;
+  return got >= 2 && head[0] == 'P' && head[1] >= '1' && head[1] <= '6';
+}
+
+/// Width and height from a PNM header ("P5 <w> <h> …", '#' comments allowed), if well formed.
+std::optional<std::pair<std::int64_t, std::int64_t>> peek_pnm_size(std::istream& in) {
+  std::int64_t values[2] = {0, 0};
+  in.clear();
+  in.seekg(2);
+  for (auto& value : values) {
+    int c = in.get();
+    while (c != EOF && (std::isspace(c) || c == '#')) {
+      if (c == '#')
+        while (c != EOF && c != '\n') c = in.get();
+      c = in.get();
+    }
+    if (c == EOF || !std::isdigit(c)) return std::nullopt;
+    value = 0;
+    for (int digits = 0; c != EOF && std::isdigit(c); c = in.get(), ++digits) {
+      if (digits >= 10) return std::nullopt;
+      value = value * 10 + (c - '0');
+    }
+  }
+  return std::pair<std::int64_t, std::int64_t>{values[0], values[1]};
+}
+
 cv::Mat read_with_flags(const std::filesystem::path& path, int flags, std::int64_t max_pixels) {
   std::error_code ec;
   if (!std::filesystem::is_regular_file(path, ec))
     throw InputError("image '" + path.string() + "': file not found");
   if (std::filesystem::file_size(path, ec) == 0)
     throw InputError("image '" + path.string() + "': file is empty");
+  if (!has_supported_signature(path))
+    throw InputError("image '" + path.string() +
+                     "': not a PNG, JPEG or PNM file (unrecognised signature)");
   if (const auto size = peek_image_size(path))
     check_pixels(path, size->first, size->second, max_pixels);
   cv::Mat image;
@@ -81,6 +121,7 @@ std::optional<std::pair<std::int64_t, std::int64_t>> peek_image_size(
       in.seekg(length - 2, std::ios::cur);
     }
   }
+  if (got >= 2 && head[0] == 'P' && head[1] >= '1' && head[1] <= '6') return peek_pnm_size(in);
   return std::nullopt;
 }
 

@@ -2,6 +2,7 @@
 
 #include <sqlite3.h>
 
+#include <charconv>
 #include <cstring>
 #include <fstream>
 #include <limits>
@@ -11,6 +12,9 @@
 
 namespace planecell::io {
 namespace {
+
+/// How long an operation waits for another connection's lock before failing (ms).
+constexpr int kBusyTimeoutMs = 5000;
 
 constexpr const char* kFormat = "planecell-map";
 constexpr const char* kVersion = "2";
@@ -267,6 +271,9 @@ MapStore::MapStore(const std::filesystem::path& path) : path_(path) {
       throw StorageError("map store '" + path.string() + "': cannot open (" + message + ")");
     }
     sqlite3_extended_result_codes(db_, 1);
+    // Other processes may read the store while it is written (planners, backups, `sqlite3`): a
+    // lock they hold for a moment (WAL recovery, checkpoint) is waited out instead of failing.
+    sqlite3_busy_timeout(db_, kBusyTimeoutMs);
   };
   open(exists ? path : creating, SQLITE_OPEN_READWRITE | (exists ? 0 : SQLITE_OPEN_CREATE));
   try {
@@ -423,8 +430,12 @@ StoredMap MapStore::load() const {
   {
     Statement meta(db_, "SELECT key, value FROM meta WHERE key IN ('next_cell_id', 'next_surface_id')", *this);
     while (meta.step(rc)) {
-      const auto value = static_cast<std::uint32_t>(std::stoul(meta.text(1)));
-      (meta.text(0) == "next_cell_id" ? out.next_cell_id : out.next_surface_id) = value;
+      const std::string key = meta.text(0), text = meta.text(1);
+      std::uint32_t value = 0;
+      const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), value);
+      if (ec != std::errc() || end != text.data() + text.size())
+        fail("meta '" + key + "' is not an id in [0, 2^32): '" + text.substr(0, 40) + "'");
+      (key == "next_cell_id" ? out.next_cell_id : out.next_surface_id) = value;
     }
     if (rc != SQLITE_DONE) fail("cannot read meta");
   }

@@ -5,7 +5,8 @@
 /// frames(frame_id, pose, counts); cells(id, frame_id, surface, fields as columns, arrays as
 /// little-endian blobs); cell_bounds (R*Tree on each cell's 3D bounds); surfaces(id, blob);
 /// merges(seq, frame_id, absorbed, into_surface). Values are stored exactly (IEEE bytes), so a
-/// reopened store rebuilds a GlobalMap equal to the one committed. Other tools can read it.
+/// reopened store rebuilds a GlobalMap equal to the one committed. Other tools can read it while
+/// it is written (their brief locks are waited out for up to 5 s before a StorageError).
 /// (io/planecell_codec is not used: it is lossy and camera-frame; the map needs exact world cells.)
 #include <cstdint>
 #include <filesystem>

@@ -3,20 +3,23 @@
 # bounded time from its seed corpus. Fails on the first target that crashes, leaks, times out on an
 # input or runs out of memory; the reproducer is left in build-fuzz/findings/<target>/.
 # Env: PLANECELL_FUZZ_SECONDS (per target, default 30), PLANECELL_FUZZ_TARGETS (space-separated
-#      subset, default all), PLANECELL_FUZZ_BUILD_DIR (default build-fuzz), PLANECELL_JOBS.
+#      subset, default all), PLANECELL_FUZZ_BUILD_DIR (default build-fuzz), PLANECELL_JOBS,
+#      PLANECELL_FUZZ_SEED (libFuzzer -seed, default 1: CI replays the same mutation sequence, so a
+#      red run is reproducible; set 0 for a random seed when hunting locally).
 # Reproduce a finding: build-fuzz/tests/fuzz/fuzz_<target> build-fuzz/findings/<target>/crash-*
 set -euo pipefail
 cd "$(dirname "$0")/.."
 ROOT=$(pwd)
 BUILD_DIR=${PLANECELL_FUZZ_BUILD_DIR:-build-fuzz}
 SECONDS_EACH=${PLANECELL_FUZZ_SECONDS:-30}
+SEED=${PLANECELL_FUZZ_SEED:-1}
 JOBS=${PLANECELL_JOBS:-$(nproc)}
-TARGETS=${PLANECELL_FUZZ_TARGETS:-"pfm kitti_disparity_png kitti_text euroc config planecell_codec map_store"}
+TARGETS=${PLANECELL_FUZZ_TARGETS:-"pfm kitti_disparity_png kitti_text euroc config planecell_codec map_store lcm"}
 CXX_BIN=${PLANECELL_FUZZ_CXX:-$(command -v clang++-14 || command -v clang++)}
 LAUNCHER=()
 if command -v ccache >/dev/null 2>&1; then LAUNCHER=(-DCMAKE_CXX_COMPILER_LAUNCHER=ccache); fi
 
-cmake -S . -B "$BUILD_DIR" -DCMAKE_BUILD_TYPE=Debug -DCMAKE_CXX_FLAGS_DEBUG="-O1 -g" \
+cmake -S . -B "$BUILD_DIR" -DCMAKE_BUILD_TYPE=Debug -DCMAKE_CXX_FLAGS_DEBUG="-O1 -g1" \
   -DCMAKE_CXX_COMPILER="$CXX_BIN" -DPLANECELL_FUZZ=ON -DPLANECELL_BUILD_TESTS=OFF \
   -DPLANECELL_BUILD_BENCHMARKS=OFF "${LAUNCHER[@]}" >/dev/null
 SECONDS=0
@@ -39,7 +42,7 @@ for target in $TARGETS; do
   echo "[fuzz] $target for ${SECONDS_EACH}s"
   # -rss_limit_mb/-malloc_limit_mb: a reader that allocates > 1 GiB for a tiny input is a finding
   # (resource limits are checked before allocating). -timeout: one input taking > 10 s is a hang.
-  if ! "$BIN/fuzz_$target" -max_total_time="$SECONDS_EACH" -timeout=10 -rss_limit_mb=2048 \
+  if ! "$BIN/fuzz_$target" -max_total_time="$SECONDS_EACH" -seed="$SEED" -timeout=10 -rss_limit_mb=2048 \
       -malloc_limit_mb=1024 -max_len=65536 -print_final_stats=1 -artifact_prefix="$findings/" \
       "$work" "$SEEDS/$target" $committed > "$BUILD_DIR/fuzz_$target.log" 2>&1; then
     echo "[fuzz] $target FAILED: see $BUILD_DIR/fuzz_$target.log and $findings/" >&2

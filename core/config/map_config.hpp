@@ -34,6 +34,22 @@ struct MapConfig {
   // --- fusion and index -----------------------------------------------------------------------
   double fuse_new_area_fraction = 0.25;  ///< a re-observed cell adding < this share of its own
                                          ///< area to its surface is fused, not stored
+  /// A new cell at least this share of which is already covered by stored cells nearly coplanar
+  /// with it (map/coverage), whatever their surface, is a re-observation: fused, not stored. The
+  /// map then grows with the area explored, not with the frames. > 1 turns the rule off.
+  /// Nearly coplanar, within the pair's depth noise σ = √(σ_new² + σ_old²) (Planecell::depth_sigma_m;
+  /// the same space seen from farther away is noisier): the stored cell's vertices (RMS) and
+  /// polygon lie within tol = clamp(redundant_sigma_factor·σ, neighbour_gap_m,
+  /// redundant_max_distance_m) of the new cell's plane, and the normals within
+  /// redundant_normal_angle_deg + atan(redundant_sigma_factor·σ / √area_new) (at most twice that
+  /// angle): a plane fitted over a cell of side √A with depth noise σ tilts by about atan(σ/√A).
+  /// A stored cell much less precise than the new one (σ_old > redundant_precision_ratio·σ_new) does
+  /// not count: the nearer, better observation is stored.
+  double redundant_coverage = 0.75;
+  double redundant_normal_angle_deg = 30.0;
+  double redundant_sigma_factor = 2.0;
+  double redundant_max_distance_m = 1.0;
+  double redundant_precision_ratio = 4.0;  // σ ∝ Z²: a cell seen from half the distance
   double footprint_resolution_m = 0.10;  ///< edge of a surface footprint bit (m; see map/footprint)
   double index_cell_m = 2.0;             ///< edge of the hashed 3D grid of cell bounds (m)
   // --- queries --------------------------------------------------------------------------------
@@ -55,6 +71,11 @@ void visit_fields(MapConfig& c, Visitor&& visit) {
   visit("mature_cells", c.mature_cells);
   visit("neighbour_gap_m", c.neighbour_gap_m);
   visit("fuse_new_area_fraction", c.fuse_new_area_fraction);
+  visit("redundant_coverage", c.redundant_coverage);
+  visit("redundant_normal_angle_deg", c.redundant_normal_angle_deg);
+  visit("redundant_sigma_factor", c.redundant_sigma_factor);
+  visit("redundant_max_distance_m", c.redundant_max_distance_m);
+  visit("redundant_precision_ratio", c.redundant_precision_ratio);
   visit("footprint_resolution_m", c.footprint_resolution_m);
   visit("index_cell_m", c.index_cell_m);
   visit("up_x", c.up_x);

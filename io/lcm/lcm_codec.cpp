@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <string>
 
 #include "core/error.hpp"
@@ -98,7 +99,24 @@ planecell_lcm::map_update_t decode_map_update(std::span<const std::uint8_t> byte
 
 planecell_lcm::map_stats_t decode_map_stats(std::span<const std::uint8_t> bytes) {
   constexpr const char* what = "map_stats_t";
-  check_count(bytes, 56, 17, what);  // each stage: name (≥ 5 bytes) and three floats
+  // Walks the layout so that no count reaches the generated decoder's resize unchecked: hash,
+  // utime and five counters (56 bytes); num_stages, each stage name (int32 length incl. NUL, then
+  // the bytes) and three floats per stage; num_queues, each queue name and an int32 depth; two
+  // int64 map sizes.
+  auto skip_strings = [&](std::size_t at, std::int32_t count) {
+    for (std::int32_t i = 0; i < count; ++i) {
+      std::int32_t length = 0;
+      at = check_count(bytes, at, 1, what, &length);
+      at += static_cast<std::size_t>(length);
+    }
+    return at;
+  };
+  std::int32_t stages = 0, queues = 0;
+  std::size_t at = check_count(bytes, 56, 17, what, &stages);  // a stage: name ≥ 5 bytes, 3 floats
+  at = skip_strings(at, stages) + 12 * static_cast<std::size_t>(stages);
+  at = check_count(bytes, at, 9, what, &queues);  // a queue: name ≥ 5 bytes, an int32
+  at = skip_strings(at, queues) + 4 * static_cast<std::size_t>(queues);
+  if (at + 16 != bytes.size()) decode_failed(what, bytes.size());
   return decode_checked<planecell_lcm::map_stats_t>(bytes, what);
 }
 
@@ -166,6 +184,21 @@ StereoFrame from_lcm(const planecell_lcm::stereo_frame_t& m) {
       image = cv::Mat(m.height, m.width, type, const_cast<std::uint8_t*>(bytes.data())).clone();
     } else if (m.encoding == planecell_lcm::stereo_frame_t::ENCODING_PNG) {
       if (bytes.empty()) throw InputError(name + ": " + side + " PNG is empty");
+      // Only a PNG whose IHDR agrees with the header reaches the decoder: imdecode would try its
+      // other decoders on anything else, and a forged size would allocate before any check.
+      static const unsigned char kPng[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
+      auto u32 = [&](std::size_t at) {
+        return (std::uint32_t{bytes[at]} << 24) | (std::uint32_t{bytes[at + 1]} << 16) |
+               (std::uint32_t{bytes[at + 2]} << 8) | std::uint32_t{bytes[at + 3]};
+      };
+      if (bytes.size() < 24 || std::memcmp(bytes.data(), kPng, 8) != 0 ||
+          std::memcmp(bytes.data() + 12, "IHDR", 4) != 0)
+        throw InputError(name + ": " + side + " image is not a PNG (no PNG signature and IHDR)");
+      if (u32(16) != static_cast<std::uint32_t>(m.width) ||
+          u32(20) != static_cast<std::uint32_t>(m.height))
+        throw InputError(name + ": " + side + " PNG is " + std::to_string(u32(16)) + "x" +
+                         std::to_string(u32(20)) + ", header says " + std::to_string(m.width) +
+                         "x" + std::to_string(m.height));
       try {
         image = cv::imdecode(bytes, m.channels == 3 ? cv::IMREAD_COLOR : cv::IMREAD_GRAYSCALE);
       } catch (const cv::Exception&) {
@@ -419,11 +452,13 @@ void MapMirror::apply(const MapUpdate& update) {
     if (cells.contains(cell.id))
       throw InputError("map update of frame " + std::to_string(update.frame_id) + ": adds cell " +
                        std::to_string(cell.id) + " the mirror already has");
-  for (const auto& [id, surface] : update.relabelled_cells)
+  for (const auto& relabel : update.relabelled_cells) {
+    const std::uint32_t id = relabel.first;  // a named copy: clang 14 cannot capture a binding
     if (!cells.contains(id) && std::none_of(update.added_cells.begin(), update.added_cells.end(),
-                                            [&](const Planecell& c) { return c.id == id; }))
+                                            [id](const Planecell& c) { return c.id == id; }))
       throw InputError("map update of frame " + std::to_string(update.frame_id) + ": relabels unknown cell " +
                        std::to_string(id));
+  }
   for (const auto& cell : update.added_cells) cells.emplace(cell.id, cell);
   for (const auto& [id, surface] : update.relabelled_cells) cells.at(id).surface = surface;
   for (const auto id : update.removed_cells) cells.erase(id);

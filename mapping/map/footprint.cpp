@@ -11,6 +11,11 @@
 namespace planecell::map {
 namespace {
 
+/// (s, t) lies within ±2³⁰ bits of the basis origin: bit and tile indices fit their integers.
+bool representable(double s, double t, double resolution_m) {
+  return std::max(std::abs(s), std::abs(t)) / resolution_m <= static_cast<double>(1 << 30);
+}
+
 constexpr int kShift = 8;  // fillPoly fixed-point bits
 constexpr int N = FootprintTile::kSize;
 
@@ -50,6 +55,12 @@ double Footprint::add_polygon(std::span<const Eigen::Vector2d> ring) {
     lo_t = std::min(lo_t, p.y()), hi_t = std::max(hi_t, p.y());
   }
   const double inv = 1.0 / resolution_m_;
+  // Bit indices (and the int32 tile indices derived from them) must stay representable: a ring
+  // beyond ±2³⁰ bits of the basis origin (±107 000 km at 10 cm) is absurd and covers nothing
+  // (fuzz_lcm crash-3e7010a1: a mirrored cell at 10³¹ m overflowed the conversion).
+  constexpr double kMaxBits = static_cast<double>(1 << 30);
+  if (std::max({std::abs(lo_s), std::abs(hi_s), std::abs(lo_t), std::abs(hi_t)}) * inv > kMaxBits)
+    return 0.0;
   // Grid bits i cover [i·res, (i+1)·res); their centres (i + 0.5)·res must lie in the polygon's
   // bounding box: i ∈ [⌈lo/res − 0.5⌉, ⌊hi/res − 0.5⌋] (fillPoly itself also takes edge pixels).
   const auto i0 = static_cast<std::int64_t>(std::ceil(lo_s * inv - 0.5));
@@ -93,7 +104,7 @@ double Footprint::add_polygon(std::span<const Eigen::Vector2d> ring) {
 }
 
 bool Footprint::add_point(double s, double t) {
-  if (!std::isfinite(s) || !std::isfinite(t)) return false;
+  if (!std::isfinite(s) || !std::isfinite(t) || !representable(s, t, resolution_m_)) return false;
   const auto i = static_cast<std::int64_t>(std::floor(s / resolution_m_));
   const auto j = static_cast<std::int64_t>(std::floor(t / resolution_m_));
   const auto ti = static_cast<std::int32_t>(floor_div(i, N)), tj = static_cast<std::int32_t>(floor_div(j, N));
@@ -112,7 +123,7 @@ double Footprint::area_m2() const {
 }
 
 bool Footprint::contains(double s, double t) const {
-  if (!std::isfinite(s) || !std::isfinite(t)) return false;
+  if (!std::isfinite(s) || !std::isfinite(t) || !representable(s, t, resolution_m_)) return false;
   const auto i = static_cast<std::int64_t>(std::floor(s / resolution_m_));
   const auto j = static_cast<std::int64_t>(std::floor(t / resolution_m_));
   const auto ti = static_cast<std::int32_t>(floor_div(i, N)), tj = static_cast<std::int32_t>(floor_div(j, N));

@@ -3,29 +3,37 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <map>
 #include <set>
+#include <string>
 
 #include "core/error.hpp"
+#include "mapping/map/coverage.hpp"
 
 namespace planecell::map {
 namespace {
 
-bool cell_is_usable(const Planecell& cell) {
-  if (!cell.has_plane || cell.vertices_m.size() < 3) return false;
-  if (!cell.plane.normal.allFinite() || !std::isfinite(cell.plane.offset)) return false;
-  for (const auto& v : cell.vertices_m)
-    if (!v.allFinite()) return false;
-  return polygon_area_m2(cell.vertices_m) > 1e-9;
-}
+/// Largest edge of a cell's bounding box the map accepts (m): a stereo planecell spans metres, and
+/// the index visits (extent / bucket)³ buckets per cell, so a corrupt polygon must not reach it.
+constexpr double kMaxCellExtentM = 200.0;
 
-LabelState state_of_cell(const Planecell& cell, double area_m2) {
-  LabelState s;
-  s.plane = cell.plane;
-  s.moments.add_polygon(cell.vertices_m, area_m2);
-  s.histogram = cell.histogram;
-  s.histogram_weight_m2 = area_m2;
-  s.area_m2 = area_m2;
-  return s;
+/// Why `cell` cannot enter the map, or "" when it can: it needs a finite plane and ≥ 3 finite
+/// vertices of non-zero area, inside the index's cube (±`max_coordinate_m`) and at most
+/// kMaxCellExtentM across.
+std::string cell_problem(const Planecell& cell, double max_coordinate_m) {
+  if (!cell.has_plane) return "has no plane";
+  if (cell.vertices_m.size() < 3) return "has fewer than 3 vertices";
+  if (!cell.plane.normal.allFinite() || !std::isfinite(cell.plane.offset))
+    return "has a non-finite plane";
+  for (const auto& v : cell.vertices_m)
+    if (!v.allFinite()) return "has a non-finite vertex";
+  const Aabb box = bounds_of(cell.vertices_m);
+  if (box.min.minCoeff() < -max_coordinate_m || box.max.maxCoeff() > max_coordinate_m)
+    return "has a vertex beyond ±" + std::to_string(max_coordinate_m) + " m";
+  if ((box.max - box.min).maxCoeff() > kMaxCellExtentM)
+    return "spans more than " + std::to_string(kMaxCellExtentM) + " m";
+  if (!(polygon_area_m2(cell.vertices_m) > 1e-9)) return "has zero area";
+  return {};
 }
 
 LabelState state_of_surface(const Surface& surface) {
@@ -35,6 +43,8 @@ LabelState state_of_surface(const Surface& surface) {
   s.histogram = surface.histogram;
   s.histogram_weight_m2 = surface.histogram_weight_m2;
   s.area_m2 = surface.area_m2;
+  s.observed_area_m2 = surface.observed_area_m2;
+  s.cells = surface.observations;
   return s;
 }
 
@@ -124,7 +134,7 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
   std::unordered_map<std::uint32_t, std::uint32_t> unit_of_extraction_id;
   for (std::size_t i = 0; i < cells_world.size(); ++i) {
     const Planecell& cell = cells_world[i];
-    if (!cell_is_usable(cell) ||
+    if (!cell_problem(cell, index_.max_coordinate_m()).empty() ||
         (vertex_centroid(cell.vertices_m) - camera_centre).norm() > config_.max_range_m) {
       ++report.rejected_cells;
       continue;
@@ -142,7 +152,7 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
   for (std::size_t k = 0; k < fresh.size(); ++k) {
     const auto label = next_surface_id_ + static_cast<std::uint32_t>(k);
     units.push_back({label, fresh[k], fresh_area[k]});
-    labels.emplace(label, state_of_cell(*fresh[k], fresh_area[k]));
+    labels.emplace(label, state_of_cell(*fresh[k], fresh_area[k], config_.residual_scale_m));
   }
 
   // 2. Neighbour edges: same frame (image adjacency, or 3D proximity), earlier cells (index).
@@ -174,6 +184,8 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
       }
   }
   std::unordered_map<std::uint32_t, std::uint32_t> unit_of_map_cell;
+  std::vector<std::vector<const Planecell*>> covering(fresh.size());  ///< stored, nearly coplanar
+  std::vector<std::vector<const Planecell*>> superseded(fresh.size());  ///< ... and much less precise
   for (std::size_t k = 0; k < fresh.size(); ++k) {
     for (std::uint32_t id : index_.query(bounds_of(fresh[k]->vertices_m).inflated(gap))) {
       const Planecell& old = cells_.at(id);
@@ -186,6 +198,29 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
       }
       edges.push_back({static_cast<std::uint32_t>(k), it->second,
                        std::sqrt(std::min(fresh_area[k], units[it->second].area_m2))});
+    }
+  }
+
+  // Stored cells that may cover each new cell (re-observation by coverage, step 5).
+  if (config_.redundant_coverage <= 1.0) {
+    const double reach = std::max(gap, config_.redundant_max_distance_m);
+    for (std::size_t k = 0; k < fresh.size(); ++k) {
+      const Planecell& cell = *fresh[k];
+      for (std::uint32_t id : index_.query(bounds_of(cell.vertices_m).inflated(reach))) {
+        const Planecell& old = cells_.at(id);
+        const double sigma = std::hypot(static_cast<double>(cell.depth_sigma_m),
+                                        static_cast<double>(old.depth_sigma_m));
+        const bool less_precise =
+            old.depth_sigma_m > config_.redundant_precision_ratio * cell.depth_sigma_m;
+        const double noise = config_.redundant_sigma_factor * sigma;
+        const double tol = std::clamp(noise, gap, reach);
+        const double base_deg = config_.redundant_normal_angle_deg;
+        const double angle_deg =
+            std::min(2.0 * base_deg, base_deg + std::atan(noise / std::sqrt(fresh_area[k])) * 180.0 / M_PI);
+        if (nearly_coplanar(cell, old, angle_deg, tol) &&
+            polygon_gap_m(cell.plane, cell.vertices_m, old.plane, old.vertices_m) <= tol)
+          (less_precise ? superseded[k] : covering[k]).push_back(&old);
+      }
     }
   }
 
@@ -210,9 +245,24 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
     if (root < next_surface_id_ && surfaces_.contains(root)) touched.insert(root);
 
   // 5. New cells: create surfaces for fresh roots, fuse or store each cell.
+  /// Stored cell id → (that cell, the new stored cells superseding it); by id, so replacement is
+  /// deterministic.
+  std::map<std::uint32_t, std::pair<const Planecell*, std::vector<const Planecell*>>> superseding;
   for (std::size_t k = 0; k < fresh.size(); ++k) {
     const Planecell& cell = *fresh[k];
     const std::uint32_t root = union_find.find(units[k].label);
+    // Space the map already holds (any surface): a re-observation, fused without being stored,
+    // into its own label's surface when that exists already, else into the first covering cell's.
+    const bool redundant = config_.redundant_coverage <= 1.0 && !covering[k].empty() &&
+                           covered_fraction(cell, covering[k]) >=
+                               config_.redundant_coverage;
+    if (redundant && !surfaces_.contains(root) &&
+        surfaces_.contains(covering[k].front()->surface)) {
+      report.cell_surfaces[fresh_input[k]] = covering[k].front()->surface;
+      ++report.fused_cells;
+      ++report.redundant_cells;
+      continue;
+    }
     auto [it, created] = surfaces_.try_emplace(root);
     Surface& surface = it->second;
     if (created) {
@@ -224,16 +274,29 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
     report.cell_surfaces[fresh_input[k]] = root;
     const double area = fresh_area[k];
     const bool had_footprint = !surface.footprint.empty();
-    const double added = surface.footprint.add_polygon(to_polygon2(cell.vertices_m, surface.basis));
+    const double added = surface.footprint.add_polygon(project_to_basis(cell.vertices_m, surface.basis));
     const double w = surface.observed_area_m2 + area;
     surface.mean_rgb = ((surface.mean_rgb * surface.observed_area_m2 + cell.mean_rgb * area) / w).cast<float>();
     surface.observed_area_m2 = w;
     surface.area_m2 += added;  // incremental: per-frame work stays local to the new cells
     surface.bounds.extend(bounds_of(cell.vertices_m));
     ++surface.observations;
-    if (had_footprint && added < config_.fuse_new_area_fraction * area) {
+    // A re-observation lying on much less precise stored cells is stored (and replaces them
+    // below) instead of being fused: the map keeps the nearer, better view of each place.
+    const bool supersedes =
+        !redundant && !superseded[k].empty() &&
+        covered_fraction(cell, superseded[k]) >= config_.redundant_coverage;
+    if (had_footprint && !supersedes &&
+        (redundant || added < config_.fuse_new_area_fraction * area)) {
       ++report.fused_cells;
+      if (redundant && added >= config_.fuse_new_area_fraction * area) ++report.redundant_cells;
       continue;
+    }
+    // Stored cells that nearer, more precise new cells cover are replaced by them (below).
+    for (const Planecell* old : superseded[k]) {
+      auto& entry = superseding[old->id];
+      entry.first = old;
+      entry.second.push_back(fresh[k]);
     }
     Planecell stored = cell;
     stored.id = next_cell_id_++;
@@ -245,10 +308,31 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
     cells_.emplace(stored.id, std::move(stored));
   }
 
-  // 6. Surface descriptors from the merged label states.
+  // Replaced cells leave the map (a surface keeps at least one cell: its last is never replaced).
+  for (const auto& [id, entry] : superseding) {
+    const auto& [old, newer] = entry;
+    if (covered_fraction(*old, newer) < config_.redundant_coverage)
+      continue;
+    const auto it = cells_.find(id);
+    Surface& surface = surfaces_.at(it->second.surface);
+    if (surface.cells.size() <= 1) continue;
+    std::erase(surface.cells, id);
+    index_.remove(id, bounds_of(it->second.vertices_m));
+    touched.insert(surface.id);
+    cells_.erase(it);
+    report.removed_cells.push_back(id);
+    ++report.replaced_cells;
+  }
+  if (!report.removed_cells.empty())
+    std::erase_if(report.relabelled_cells, [&](std::uint32_t id) { return !cells_.contains(id); });
+
+  // 6. Surface descriptors from the merged label states (surfaces touched only by a replacement
+  // keep theirs).
   for (std::uint32_t id : touched) {
     Surface& surface = surfaces_.at(id);
-    const LabelState& state = labels.at(id);
+    const auto state_it = labels.find(id);
+    if (state_it == labels.end()) continue;
+    const LabelState& state = state_it->second;
     surface.plane = state.plane;
     surface.moments = state.moments;
     surface.histogram = state.histogram;
@@ -285,6 +369,9 @@ GlobalMap GlobalMap::restore(const MapConfig& config, std::vector<Planecell> cel
     map.surfaces_.emplace(id, std::move(surface));
   }
   for (auto& cell : cells) {
+    if (const std::string problem = cell_problem(cell, map.index_.max_coordinate_m());
+        !problem.empty())
+      throw StorageError("map restore: cell " + std::to_string(cell.id) + " " + problem);
     if (!map.surfaces_.contains(cell.surface))
       throw StorageError("map restore: cell " + std::to_string(cell.id) + " names missing surface " +
                          std::to_string(cell.surface));

@@ -50,10 +50,11 @@ struct MergeReport {
   std::size_t input_cells = 0;    ///< cells handed in
   std::size_t rejected_cells = 0; ///< planeless, degenerate or beyond max_range_m
   std::size_t fused_cells = 0;    ///< re-observations folded into a surface, not stored
+  std::size_t redundant_cells = 0;  ///< of those, fused by coverage (MapConfig::redundant_coverage)
   std::vector<std::uint32_t> added_cells;       ///< new stored cells (map ids)
   std::vector<std::uint32_t> relabelled_cells;  ///< existing cells whose surface changed
-  std::vector<std::uint32_t> removed_cells;     ///< cells deleted from the map (none yet: cells
-                                                ///< are only added; kept for the store/LCM API)
+  std::size_t replaced_cells = 0;  ///< stored cells replaced by a nearer, more precise new cell
+  std::vector<std::uint32_t> removed_cells;     ///< cells deleted from the map (replaced)
   std::vector<std::uint32_t> updated_surfaces;  ///< surfaces created or changed (alive, sorted)
   std::vector<std::uint32_t> removed_surfaces;  ///< surfaces absorbed by merges
   std::vector<SurfaceMerge> surface_merges;     ///< in merge order

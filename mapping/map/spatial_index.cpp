@@ -32,9 +32,11 @@ SpatialIndex::SpatialIndex(double bucket_m) : bucket_m_(bucket_m) {
 
 template <class F>
 void SpatialIndex::for_each_bucket(const Aabb& box, F&& f) const {
-  if (box.empty()) return;
-  const Eigen::Vector3d lo = (box.min / bucket_m_).array().floor();
-  const Eigen::Vector3d hi = (box.max / bucket_m_).array().floor();
+  if (box.empty() || !box.min.allFinite() || !box.max.allFinite()) return;
+  // Clamped to the key range so a query box of any size stays a finite, in-range loop.
+  const double limit = static_cast<double>((1 << 20) - 1);
+  const Eigen::Vector3d lo = (box.min / bucket_m_).array().floor().max(-limit).min(limit);
+  const Eigen::Vector3d hi = (box.max / bucket_m_).array().floor().max(-limit).min(limit);
   for (auto x = static_cast<std::int64_t>(lo.x()); x <= static_cast<std::int64_t>(hi.x()); ++x)
     for (auto y = static_cast<std::int64_t>(lo.y()); y <= static_cast<std::int64_t>(hi.y()); ++y)
       for (auto z = static_cast<std::int64_t>(lo.z()); z <= static_cast<std::int64_t>(hi.z()); ++z)
@@ -43,6 +45,10 @@ void SpatialIndex::for_each_bucket(const Aabb& box, F&& f) const {
 
 void SpatialIndex::insert(std::uint32_t id, const Aabb& box) {
   if (box.empty() || !box.min.allFinite() || !box.max.allFinite()) return;
+  const double limit = max_coordinate_m();
+  if (box.min.minCoeff() < -limit || box.max.maxCoeff() > limit)
+    throw InputError("spatial index: cell " + std::to_string(id) + " lies outside ±" +
+                     std::to_string(limit) + " m, the indexable range");
   boxes_[id] = box;
   for_each_bucket(box, [&](std::uint64_t key) { buckets_[key].push_back(id); });
 }

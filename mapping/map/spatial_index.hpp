@@ -15,7 +15,8 @@ class SpatialIndex {
   /// `bucket_m`: edge length of a grid bucket (m); must be > 0 (ConfigError otherwise).
   explicit SpatialIndex(double bucket_m = 2.0);
 
-  /// Registers `id` in every bucket its box touches.
+  /// Registers `id` in every bucket its box touches. Throws InputError when the box leaves the
+  /// indexable cube |x|, |y|, |z| ≤ max_coordinate_m() (bucket coordinates are 21-bit keys).
   void insert(std::uint32_t id, const Aabb& box);
   /// Removes `id` (registered with the same box).
   void remove(std::uint32_t id, const Aabb& box);
@@ -23,6 +24,8 @@ class SpatialIndex {
   std::vector<std::uint32_t> query(const Aabb& box) const;
 
   std::size_t size() const { return boxes_.size(); }
+  /// Half-width of the indexable cube: bucket_m · (2²⁰ − 1) (2 m buckets: ±2097 km).
+  double max_coordinate_m() const { return bucket_m_ * static_cast<double>((1 << 20) - 1); }
   void clear();
   /// Heap bytes of the buckets, their id vectors and the stored boxes (requested sizes).
   std::size_t bytes() const;

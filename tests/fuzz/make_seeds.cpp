@@ -10,6 +10,7 @@
 #include "core/error.hpp"
 #include "core/plane.hpp"
 #include "io/disparity_io.hpp"
+#include "io/lcm/lcm_codec.hpp"
 #include "io/map_store.hpp"
 #include "io/planecell_codec.hpp"
 #include "support/planecell_fixtures.hpp"
@@ -54,6 +55,54 @@ void write_bytes(const fs::path& path, const std::vector<std::uint8_t>& bytes) {
   out.write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()));
 }
 
+/// fuzz_lcm input: the selector byte of the message type, then the encoded message.
+template <class Message>
+void write_lcm_seed(const fs::path& path, std::uint8_t selector, const Message& message) {
+  std::vector<std::uint8_t> bytes{selector};
+  const auto encoded = io::encode_bytes(message);
+  bytes.insert(bytes.end(), encoded.begin(), encoded.end());
+  write_bytes(path, bytes);
+}
+
+/// One seed per LCM message type fuzz_lcm handles (selectors as in fuzz_lcm.cpp).
+void write_lcm_seeds(const fs::path& dir) {
+  StereoFrame frame;
+  frame.frame_id = 3;
+  frame.left = cv::Mat(6, 8, CV_8UC3, cv::Scalar(10, 20, 30));
+  frame.right = cv::Mat(6, 8, CV_8UC3, cv::Scalar(11, 21, 31));
+  frame.camera.width = 8;
+  frame.camera.height = 6;
+  write_lcm_seed(dir / "seed_frame_raw", 0, io::to_lcm(frame, io::ImageEncoding::kRaw, 1000));
+  write_lcm_seed(dir / "seed_frame_png", 0, io::to_lcm(frame, io::ImageEncoding::kPng, 1000));
+  Pose pose = Pose::Identity();
+  pose.translation() = Eigen::Vector3d(1, 2, 3);
+  write_lcm_seed(dir / "seed_pose", 1, io::to_lcm(3, pose, 1000));
+  io::MapUpdate update;
+  update.frame_id = 4;
+  const Eigen::Vector3f x(1, 0, 0), z(0, 0, 1);
+  Planecell added = test::rect_cell(2, {2, 1.5f, 5}, x, z, 3);
+  added.surface = 0;
+  update.added_cells = {added};
+  update.relabelled_cells = {{1, 0}};
+  update.surface_merges = {map::SurfaceMerge{4, 1, 0}};
+  update.removed_surfaces = {1};
+  update.next_cell_id = 3;
+  update.next_surface_id = 2;
+  update.map_cells = 3;
+  update.map_surfaces = 1;
+  write_lcm_seed(dir / "seed_map_update", 2, io::encode_map_update(update, 1000).at(0));
+  planecell_lcm::map_stats_t stats{};
+  stats.num_stages = 1;
+  stats.stage = {"sgm"};
+  stats.p50_ms = {60.0f};
+  stats.p95_ms = {70.0f};
+  stats.p99_ms = {80.0f};
+  stats.num_queues = 1;
+  stats.queue = {"frames"};
+  stats.queue_depth = {2};
+  write_lcm_seed(dir / "seed_map_stats", 3, stats);
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -63,7 +112,7 @@ int main(int argc, char** argv) {
   }
   const fs::path out = argv[1];
   try {
-    for (const char* target : {"pfm", "kitti_disparity_png", "planecell_codec", "map_store"}) {
+    for (const char* target : {"pfm", "kitti_disparity_png", "planecell_codec", "map_store", "lcm"}) {
       fs::remove_all(out / target);  // only this program's seeds live here
       fs::create_directories(out / target);
     }
@@ -95,6 +144,7 @@ int main(int argc, char** argv) {
       }
     }
     for (const char* side : {"-wal", "-shm"}) fs::remove(db.string() + side);
+    write_lcm_seeds(out / "lcm");
   } catch (const std::exception& e) {
     std::fprintf(stderr, "fuzz_make_seeds: %s\n", e.what());
     return 1;

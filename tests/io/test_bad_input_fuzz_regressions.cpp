@@ -2,13 +2,18 @@
 /// work that escaped the readers as something other than the documented InputError/StorageError,
 /// kept as plain regression tests with the crashing bytes inline (fuzz selector byte removed).
 #include <gtest/gtest.h>
+#include <sqlite3.h>
 
 #include <fstream>
 #include <string>
 
+#include "core/error.hpp"
 #include "io/euroc.hpp"
+#include "io/lcm/lcm_codec.hpp"
 #include "io/map_store.hpp"
 #include "support/expect_error.hpp"
+#include "services/pipeline/mirror_map.hpp"
+#include "support/planecell_fixtures.hpp"
 #include "support/test_data.hpp"
 
 namespace planecell::io {
@@ -73,6 +78,147 @@ TEST(FuzzRegression, StaleHalfCreatedStoreIsReplacedNotAdopted) {
   EXPECT_FALSE(std::filesystem::exists(dir / "map.db.creating-wal"));
   const MapStore reopened(path);  // the created file is a valid, empty planecell map
   EXPECT_EQ(reopened.frame_count(), 0u);
+}
+
+/// fuzz_map_store crash-08aa3a15 (CI, one flipped bit): a meta value 'next_cell_id' that is not a
+/// number escaped MapStore::load as std::invalid_argument from std::stoul. It is now a
+/// StorageError naming the store and the key; the same for a value beyond 32 bits.
+TEST(FuzzRegression, MapStoreMetaIdThatIsNotANumber) {
+  test::ScratchDir dir;
+  const auto path = dir / "map.db";
+  { MapStore store(path); }
+  for (const std::string bad : {"12x", "", "-1", "4294967296"}) {
+    sqlite3* db = nullptr;
+    ASSERT_EQ(sqlite3_open(path.c_str(), &db), SQLITE_OK);
+    const std::string sql = "UPDATE meta SET value = '" + bad + "' WHERE key = 'next_cell_id';";
+    ASSERT_EQ(sqlite3_exec(db, sql.c_str(), nullptr, nullptr, nullptr), SQLITE_OK);
+    sqlite3_close(db);
+    const MapStore store(path);
+    try {
+      (void)store.load();
+      ADD_FAILURE() << "meta value '" << bad << "' was accepted";
+    } catch (const StorageError& e) {
+      EXPECT_CONTAINS(std::string(e.what()), "map.db");
+      EXPECT_CONTAINS(std::string(e.what()), "meta 'next_cell_id' is not an id");
+    }
+  }
+}
+
+/// fuzz_map_store crash-dcd31fbf (CI, UBSan): a stored vertex of 9·10²⁴ m reached the spatial
+/// index, whose float → int64 bucket conversion overflowed. GlobalMap::restore now refuses cells
+/// beyond the index's range or larger than a planecell can be (StorageError naming the cell);
+/// integrate rejects such cells from a live frame instead of indexing them.
+TEST(FuzzRegression, MapStoreCellWithAVertexBeyondTheIndexRange) {
+  test::ScratchDir dir;
+  const auto path = dir / "map.db";
+  const Eigen::Vector3f x(1, 0, 0), z(0, 0, 1);
+  {
+    MapStore store(path);
+    map::GlobalMap map;
+    const auto report = map.integrate(0, Pose::Identity(), std::vector{test::rect_cell(0, {0, 1.5f, 5}, x, z, 3)});
+    ASSERT_EQ(map.cells().size(), 1u);
+    store.commit_frame(0, Pose::Identity(), report, map);
+  }
+  ASSERT_EQ(load_map(MapStore(path)).cells().size(), 1u);  // intact store loads
+  for (const float bad : {9.19716e24f, -3e7f, 250.0f}) {
+    SCOPED_TRACE(bad);
+    // Vertices (0,1.5,5) (bad,1.5,5) (bad,1.5,6) (0,1.5,6): beyond ±2097 km, or 250 m across.
+    std::vector<float> xyz{0, 1.5f, 5, bad, 1.5f, 5, bad, 1.5f, 6, 0, 1.5f, 6};
+    sqlite3* db = nullptr;
+    ASSERT_EQ(sqlite3_open(path.c_str(), &db), SQLITE_OK);
+    sqlite3_stmt* stmt = nullptr;
+    ASSERT_EQ(sqlite3_prepare_v2(db, "UPDATE cells SET vertices_m = ?", -1, &stmt, nullptr), SQLITE_OK);
+    sqlite3_bind_blob(stmt, 1, xyz.data(), static_cast<int>(xyz.size() * sizeof(float)), SQLITE_TRANSIENT);
+    ASSERT_EQ(sqlite3_step(stmt), SQLITE_DONE);
+    sqlite3_finalize(stmt);
+    sqlite3_close(db);
+    const MapStore store(path);
+    try {
+      (void)load_map(store);
+      ADD_FAILURE() << "a cell with a vertex at x = " << bad << " was restored";
+    } catch (const StorageError& e) {
+      EXPECT_CONTAINS(std::string(e.what()), "map restore: cell 0");
+      EXPECT_CONTAINS(std::string(e.what()), bad == 250.0f ? "spans more than" : "has a vertex beyond");
+    }
+  }
+}
+
+/// The live path of the same finding: a frame cell far outside the index range (a corrupt pose or
+/// disparity) is rejected by integrate and the map keeps what it had.
+TEST(FuzzRegression, FrameCellBeyondTheIndexRangeIsRejectedNotIndexed) {
+  const Eigen::Vector3f x(1, 0, 0), z(0, 0, 1);
+  MapConfig config;
+  config.max_range_m = 1e30;  // the range gate would otherwise hide the case
+  map::GlobalMap map(config);
+  (void)map.integrate(0, Pose::Identity(), std::vector{test::rect_cell(0, {0, 1.5f, 5}, x, z, 3)});
+  ASSERT_EQ(map.cells().size(), 1u);
+  const auto report = map.integrate(1, Pose::Identity(), std::vector{test::rect_cell(0, {1e25f, 1.5f, 5}, x, z, 3)});
+  EXPECT_EQ(report.rejected_cells, 1u);
+  EXPECT_EQ(map.cells().size(), 1u);
+}
+
+/// fuzz_lcm crash-3e7010a1 (UBSan): a map update whose cell has a vertex at -1.2·10³¹ m reached the
+/// subscriber's mirror_to_map, and the surface footprint converted it to int64 (overflow).
+/// Footprints now ignore rings beyond ±2³⁰ bits, and restoring the mirrored map refuses the cell.
+TEST(FuzzRegression, LcmMapUpdateWithACellAtTenToTheThirtyOneMetres) {
+  const std::string hex =
+      "02cf23807268959f0900000000000003e800000000000000040000000000000001000000030000000200000003000000"
+      "010000000100000002000000000000000000000000010000000000000000000000000000000000000000000000000000"
+      "000000000000bff000000000000000000000000000003ff800000000000000000004000000000000000041a000000000"
+      "000041a0000041a000000000000041a00000400000003fc0000040a00000404000003fc0000040444d445f4c4f4e474e"
+      "414d453d5a61727200003fc0000040c000004140000042c80000424800000000000000000000000000003f8000000000"
+      "000000000000000000000000000000000000000000000000000000000000000000000000000000000000000000000000"
+      "000000000000000000000000000000000000000000000000000000000000000000000000000000000000000000000000"
+      "000000000000000000000000000000000000000000000000000000000000000000000000000000000000000000000000"
+      "000000000000000000000007000000000000000000000000000000000000000000000000000000000000000000000000"
+      "000000000000000000000000000000000000000000000000000000000000000000000000000000000000000000000000"
+      "019000000000000000000000000000000001000000010000000000000000000000010000000100000000000000010000"
+      "0001";
+  std::vector<std::uint8_t> bytes;
+  for (std::size_t i = 0; i + 1 < hex.size(); i += 2)
+    bytes.push_back(static_cast<std::uint8_t>(std::stoi(hex.substr(i, 2), nullptr, 16)));
+  ASSERT_EQ(bytes.front() % 4, 2);  // fuzz_lcm's selector: map_update_t
+  io::MapUpdateAssembler assembler;
+  const auto update = assembler.add(io::decode_map_update(std::span(bytes).subspan(1)));
+  ASSERT_TRUE(update.has_value());
+  io::MapMirror mirror;  // as in fuzz_lcm: two mirrored road cells the update relabels
+  for (std::uint32_t id = 0; id < 2; ++id) {
+    Planecell c = test::rect_cell(id, {static_cast<float>(id), 1.5f, 5}, {1, 0, 0}, {0, 0, 1}, 3);
+    c.surface = id;
+    mirror.cells.emplace(id, c);
+  }
+  mirror.apply(*update);
+  EXPECT_THROW((void)services::mirror_to_map(mirror, MapConfig{}), StorageError);
+}
+
+/// fuzz_lcm crash-f0f7ba7d (ASan out-of-memory): a map_stats_t whose queue count claims ~10⁹
+/// names made the generated decoder resize a vector<string> to 31 GB. decode_map_stats now walks
+/// the whole layout (every count and string length against the bytes left) before decoding.
+TEST(FuzzRegression, LcmMapStatsWithAHugeQueueCount) {
+  const std::string hex =
+      "03e8441ba7abe8fe55000000000000000000000000000000000000000000000000000000000000000000000000000000"
+      "000000000000000000000000010000000473676d0042700000428c0000000200003a2f2f000000000000000000000000"
+      "0000";
+  std::vector<std::uint8_t> bytes;
+  for (std::size_t i = 0; i + 1 < hex.size(); i += 2)
+    bytes.push_back(static_cast<std::uint8_t>(std::stoi(hex.substr(i, 2), nullptr, 16)));
+  ASSERT_EQ(bytes.front() % 4, 3);  // fuzz_lcm's selector: map_stats_t
+  EXPECT_CONTAINS(input_error_of([&] { (void)io::decode_map_stats(std::span(bytes).subspan(1)); }),
+                  "map_stats_t: 97 bytes are not one whole message");
+  // A well-formed message with the same stage still decodes.
+  planecell_lcm::map_stats_t stats{};
+  stats.num_stages = 1;
+  stats.stage = {"sgm"};
+  stats.p50_ms = {60.0f};
+  stats.p95_ms = {70.0f};
+  stats.p99_ms = {80.0f};
+  stats.num_queues = 2;
+  stats.queue = {"frames", "cells"};
+  stats.queue_depth = {2, 0};
+  stats.map_cells = 7;
+  const auto back = io::decode_map_stats(io::encode_bytes(stats));
+  EXPECT_EQ(back.queue, stats.queue);
+  EXPECT_EQ(back.map_cells, 7);
 }
 
 }  // namespace

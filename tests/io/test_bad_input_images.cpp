@@ -87,12 +87,43 @@ TEST(BadImageInput, ConfiguredPixelLimitIsAppliedToRealPngAndJpegFiles) {
   }
 }
 
-TEST(BadImageInput, FormatsWithoutAHeaderPeekAreCheckedAfterDecoding) {
+TEST(BadImageInput, PnmHeaderIsPeekedAndItsSizeCheckedBeforeDecoding) {
   test::ScratchDir dir;
   write_image(dir / "a.ppm", cv::Mat(30, 40, CV_8UC3, cv::Scalar(1, 2, 3)));
-  EXPECT_FALSE(peek_image_size(dir / "a.ppm").has_value());
+  const auto size = peek_image_size(dir / "a.ppm");
+  ASSERT_TRUE(size.has_value());
+  EXPECT_EQ(size->first, 40);
+  EXPECT_EQ(size->second, 30);
   EXPECT_CONTAINS(input_error_of([&] { (void)read_image(dir / "a.ppm", true, 1000); }),
                   "40x30 exceeds the limit of 1000 pixels");
+  // A comment between the fields, and a header claiming 9·10⁹ pixels with no data behind it.
+  write_bytes(dir / "huge.pgm", "P5\n# made by hand\n90000 100000\n255\n");
+  const auto huge = peek_image_size(dir / "huge.pgm");
+  ASSERT_TRUE(huge.has_value());
+  EXPECT_EQ(huge->first, 90000);
+  EXPECT_EQ(huge->second, 100000);
+  EXPECT_CONTAINS(input_error_of([&] { (void)read_image(dir / "huge.pgm"); }),
+                  "90000x100000 exceeds the limit of 64000000 pixels");
+}
+
+/// fuzz_kitti_disparity_png oom-3617dfd2: a mutated PNG lost its signature, OpenCV's DICOM decoder
+/// took it and asked for 4 GB. Only PNG, JPEG and PNM signatures reach a decoder now.
+TEST(BadImageInput, FileWithoutAPngJpegOrPnmSignatureIsRefusedBeforeDecoding) {
+  test::ScratchDir dir;
+  std::string dicom(128, '\0');
+  dicom += "DICM" + std::string(64, '\xff');
+  write_bytes(dir / "scan.png", dicom);
+  write_bytes(dir / "tiff.png", std::string("II*\0", 4) + std::string(64, '\x7f'));
+  for (const char* name : {"scan.png", "tiff.png"}) {
+    SCOPED_TRACE(name);
+    for (auto read : {+[](const std::filesystem::path& p) { (void)read_image(p); },
+                      +[](const std::filesystem::path& p) { (void)read_image_unchanged(p); },
+                      +[](const std::filesystem::path& p) { (void)read_kitti_disparity(p); }}) {
+      const std::string message = input_error_of([&] { read(dir / name); });
+      EXPECT_CONTAINS(message, name);
+      EXPECT_CONTAINS(message, "not a PNG, JPEG or PNM file");
+    }
+  }
 }
 
 TEST(BadImageInput, PfmHeaderAboveThePixelLimitIsRefused) {

@@ -68,7 +68,14 @@ TEST(ImageIo, MissingEmptyAndCorruptFilesAreNamed) {
   expect_error_naming<InputError>([&] { read_image(dir / "empty.png"); }, "empty");
   std::ofstream(dir / "corrupt.png") << "definitely not a PNG file";
   expect_error_naming<InputError>([&] { read_image(dir / "corrupt.png"); }, "corrupt.png");
-  expect_error_naming<InputError>([&] { read_image_unchanged(dir / "corrupt.png"); }, "decoded");
+  expect_error_naming<InputError>([&] { read_image_unchanged(dir / "corrupt.png"); },
+                                  "not a PNG, JPEG or PNM file");
+  // A real PNG signature and header with the image data cut off: the decoder refuses it.
+  write_image(dir / "whole.png", pattern_bgr());
+  std::ifstream whole(dir / "whole.png", std::ios::binary);
+  std::string bytes((std::istreambuf_iterator<char>(whole)), std::istreambuf_iterator<char>());
+  std::ofstream(dir / "cut.png", std::ios::binary) << bytes.substr(0, 40);
+  expect_error_naming<InputError>([&] { read_image(dir / "cut.png"); }, "cannot be decoded");
 }
 
 TEST(ImageIo, UnwritableTargetsRaiseStorageError) {

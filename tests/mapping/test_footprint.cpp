@@ -78,5 +78,19 @@ TEST(Footprint, BadInputIsRejectedOrIgnored) {
   EXPECT_TRUE(f.empty());
 }
 
+TEST(Footprint, RingsAndPointsBeyondTheRepresentableRangeCoverNothing) {
+  Footprint f(0.1);
+  const std::vector<Eigen::Vector2d> far = {{-1.2e31, 0}, {-1.2e31 + 1, 0}, {-1.2e31 + 1, 1}};
+  EXPECT_EQ(f.add_polygon(far), 0.0);
+  const std::vector<Eigen::Vector2d> beyond = {{1.1e8, 0}, {1.1e8 + 1, 0}, {1.1e8 + 1, 1}};  // 1.1·10⁹ bits
+  EXPECT_EQ(f.add_polygon(beyond), 0.0);
+  EXPECT_FALSE(f.add_point(1e300, 0));
+  EXPECT_FALSE(f.contains(0, -1e300));
+  EXPECT_TRUE(f.empty());
+  // Just inside the range (10⁸ bits = 10 000 km): covered as usual.
+  const std::vector<Eigen::Vector2d> inside = {{1e7, 0}, {1e7 + 1, 0}, {1e7 + 1, 1}, {1e7, 1}};
+  EXPECT_NEAR(f.add_polygon(inside), 1.0, 1e-9);
+}
+
 }  // namespace
 }  // namespace planecell::map

@@ -1,0 +1,107 @@
+/// Re-observation by coverage (map/coverage, MapConfig::redundant_*): covered shares of hand-made
+/// squares, the coplanarity gate, and the map neither storing space it already holds nor keeping a
+/// far, noisy cell once a near, precise one covers it.
+#include <gtest/gtest.h>
+
+#include "mapping/map/coverage.hpp"
+#include "mapping/map/global_map.hpp"
+#include "support/planecell_fixtures.hpp"
+
+namespace planecell::map {
+namespace {
+
+using test::rect_cell;
+
+const Eigen::Vector3f kX(1, 0, 0), kZ(0, 0, 1);
+
+/// A 1 m road square at x ∈ [x0, x0 + w], z ∈ [5, 6] on the plane y = 1.5.
+Planecell road(std::uint32_t id, float x0, float w = 1.0f, int colour_bin = 3) {
+  return rect_cell(id, {x0, 1.5f, 5}, w * kX, kZ, colour_bin);
+}
+
+TEST(Coverage, SharesOfASquareCoveredByHandPlacedSquares) {
+  const Planecell cell = road(0, 0);
+  const Planecell left = road(1, 0, 0.5f), right = road(2, 0.5f, 0.5f), far = road(3, 3);
+  const int samples = 400;  // a 20 × 20 grid over the cell
+  EXPECT_NEAR(covered_fraction(cell, std::vector{&left}, samples), 0.5, 0.03);
+  EXPECT_NEAR(covered_fraction(cell, std::vector{&left, &right}, samples), 1.0, 1e-9);
+  EXPECT_EQ(covered_fraction(cell, std::vector{&far}, samples), 0.0);
+  EXPECT_EQ(covered_fraction(cell, std::vector<const Planecell*>{}, samples), 0.0);
+  // A covering square 0.2 m above the cell's plane projects onto the same area.
+  const Planecell lifted = rect_cell(4, {0, 1.3f, 5}, kX, kZ, 3);
+  EXPECT_NEAR(covered_fraction(cell, std::vector{&lifted}, samples), 1.0, 1e-9);
+}
+
+TEST(Coverage, NearlyCoplanarGatesAngleAndRmsDistance) {
+  const Planecell cell = road(0, 0);
+  EXPECT_TRUE(nearly_coplanar(cell, road(1, 0.5f), 10.0, 0.1));
+  // 0.2 m above: RMS vertex distance 0.2 m.
+  const Planecell lifted = rect_cell(2, {0, 1.3f, 5}, kX, kZ, 3);
+  EXPECT_FALSE(nearly_coplanar(cell, lifted, 10.0, 0.19));
+  EXPECT_TRUE(nearly_coplanar(cell, lifted, 10.0, 0.21));
+  // Tilted by 30° about the x axis through its near edge: rejected at 20°, accepted at 35° when
+  // the vertices are close enough (RMS of 0, 0, 0.5, 0.5 = 0.354 m).
+  const Eigen::Vector3f tilted_edge(0, -std::sin(0.5236f), std::cos(0.5236f));
+  const Planecell tilted = rect_cell(3, {0, 1.5f, 5}, kX, tilted_edge, 3);
+  EXPECT_FALSE(nearly_coplanar(cell, tilted, 20.0, 1.0));
+  EXPECT_TRUE(nearly_coplanar(cell, tilted, 35.0, 0.36));
+  EXPECT_FALSE(nearly_coplanar(cell, tilted, 35.0, 0.35));
+}
+
+/// Colours far apart keep the CRF from merging the re-observation into the first surface, so
+/// only the coverage rule can recognise it.
+TEST(Coverage, MapDoesNotStoreSpaceItAlreadyHoldsWhateverTheLabel) {
+  for (const bool rule_on : {true, false}) {
+    SCOPED_TRACE(rule_on ? "coverage rule on" : "coverage rule off");
+    MapConfig config;
+    if (!rule_on) config.redundant_coverage = 2.0;
+    GlobalMap map(config);
+    (void)map.integrate(0, Pose::Identity(), std::vector{road(0, 0), road(1, 1)});
+    ASSERT_EQ(map.cells().size(), 2u);
+    // The same two squares again, seen with another colour (lighting), plus new road beyond.
+    const auto r = map.integrate(1, Pose::Identity(),
+                                 std::vector{road(0, 0, 1.0f, 30), road(1, 1, 1.0f, 30), road(2, 2)});
+    if (rule_on) {
+      EXPECT_EQ(r.redundant_cells, 2u);
+      EXPECT_EQ(r.fused_cells, 2u);
+      ASSERT_EQ(r.added_cells.size(), 1u);
+      EXPECT_EQ(map.cells().size(), 3u);
+      // The fused cells are reported on the surface of the cells that hold their space.
+      EXPECT_EQ(r.cell_surfaces[0], map.cells().at(0).surface);
+      EXPECT_EQ(r.cell_surfaces[1], map.cells().at(1).surface);
+    } else {
+      EXPECT_EQ(r.redundant_cells, 0u);
+      EXPECT_EQ(map.cells().size(), 5u);
+    }
+  }
+}
+
+TEST(Coverage, NearPreciseCellsReplaceAFarNoisyCellTheyCover) {
+  MapConfig config;
+  GlobalMap map(config);
+  // Frame 0: seen from far, σ_Z = 0.4 m: a 2 m square and its 1 m neighbour (one surface).
+  Planecell far_big = road(0, 0, 2.0f), far_next = road(1, 2);
+  far_big.depth_sigma_m = far_next.depth_sigma_m = 0.4f;
+  (void)map.integrate(0, Pose::Identity(), std::vector{far_big, far_next});
+  ASSERT_EQ(map.cells().size(), 2u);
+  ASSERT_EQ(map.surfaces().size(), 1u);
+  const std::uint32_t big_id = 0;
+  ASSERT_NEAR(polygon_area_m2(map.cells().at(big_id).vertices_m), 2.0, 1e-6);
+  // Frame 1: seen from near, σ_Z = 0.02 m: two 1 m squares covering the 2 m one.
+  Planecell near_a = road(0, 0), near_b = road(1, 1);
+  near_a.depth_sigma_m = near_b.depth_sigma_m = 0.02f;
+  const auto r = map.integrate(1, Pose::Identity(), std::vector{near_a, near_b});
+  EXPECT_EQ(r.added_cells.size(), 2u);
+  EXPECT_EQ(r.replaced_cells, 1u);
+  EXPECT_EQ(r.removed_cells, std::vector<std::uint32_t>{big_id});
+  EXPECT_FALSE(map.cells().contains(big_id));
+  EXPECT_EQ(map.cells().size(), 3u);
+  // Frame 2: the same near squares once more add nothing (covered by equally precise cells).
+  const auto again = map.integrate(2, Pose::Identity(), std::vector{near_a, near_b});
+  EXPECT_TRUE(again.added_cells.empty());
+  EXPECT_TRUE(again.removed_cells.empty());
+  EXPECT_EQ(map.cells().size(), 3u);
+}
+
+}  // namespace
+}  // namespace planecell::map
