@@ -2,6 +2,7 @@
 
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
 #include <chrono>
 #include <memory>
 #include <set>
@@ -219,7 +220,10 @@ ReplayReport run_replay(const ReplayOptions& options, const AppConfig& config) {
   report.map_bytes = global_map.map_bytes();
   if (options.memory_sample_every > 0 && (report.memory.empty() || report.memory.back().frames != report.frames))
     sample_memory(report.map_bytes);
+  // The kernel's high-water mark (ru_maxrss) is updated lazily and can trail a later sample.
   report.peak_rss_bytes = peak_resident_bytes();
+  for (const auto& sample : report.memory)
+    report.peak_rss_bytes = std::max(report.peak_rss_bytes, sample.rss_bytes);
 
   report.plane_fraction = report.frames > 0 ? plane_fraction_sum / static_cast<double>(report.frames) : 0.0;
   report.cells_in_map = global_map.cells().size();

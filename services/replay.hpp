@@ -87,7 +87,7 @@ struct ReplayReport {
   std::vector<std::pair<std::string, StageCostSummary>> stage_cost;
   /// RSS before the first frame, every memory_sample_every frames and after the last one.
   std::vector<MemorySample> memory;
-  std::size_t peak_rss_bytes = 0;  ///< getrusage ru_maxrss at the end
+  std::size_t peak_rss_bytes = 0;  ///< max(getrusage ru_maxrss at the end, every RSS sample)
   double rate_hz = 0.0;            ///< input pacing (0 = as fast as possible)
   bool threaded = false;
   double frames_per_s = 0.0;  ///< frames / wall_s

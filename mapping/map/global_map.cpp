@@ -254,8 +254,7 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
     // Space the map already holds (any surface): a re-observation, fused without being stored,
     // into its own label's surface when that exists already, else into the first covering cell's.
     const bool redundant = config_.redundant_coverage <= 1.0 && !covering[k].empty() &&
-                           covered_fraction(cell, covering[k]) >=
-                               config_.redundant_coverage;
+                           covered_fraction(cell, covering[k]) >= config_.redundant_coverage;
     if (redundant && !surfaces_.contains(root) &&
         surfaces_.contains(covering[k].front()->surface)) {
       report.cell_surfaces[fresh_input[k]] = covering[k].front()->surface;
@@ -311,9 +310,9 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
   // Replaced cells leave the map (a surface keeps at least one cell: its last is never replaced).
   for (const auto& [id, entry] : superseding) {
     const auto& [old, newer] = entry;
-    if (covered_fraction(*old, newer) < config_.redundant_coverage)
-      continue;
+    if (covered_fraction(*old, newer) < config_.redundant_coverage) continue;
     const auto it = cells_.find(id);
+    if (it == cells_.end()) continue;
     Surface& surface = surfaces_.at(it->second.surface);
     if (surface.cells.size() <= 1) continue;
     std::erase(surface.cells, id);
