@@ -11,6 +11,11 @@ struct MapConfig {
   /// noise grows as Z²: at 20 m (KITTI rig) a cell is ~0.1–0.3 m off its true plane, about the step
   /// between a road and its sidewalk; nearer re-observations of the same area are mapped instead.
   double max_range_m = 20.0;
+  /// Cells whose stereo depth noise σ_Z (Planecell::depth_sigma_m = Z²·σ_d/(f_x·B)) exceeds this
+  /// are not mapped either: the range gate in terms of the rig. 0.6 m is σ_Z at 20 m on the KITTI
+  /// rig (f_x 721.5 px, B 0.54 m, σ_d = 1/√3 px); a camera with half the focal length reaches it at
+  /// 14 m. 0 = no gate.
+  double max_depth_sigma_m = 0.6;
   // --- CRF variation range --------------------------------------------------------------------
   double max_normal_angle_deg = 10.0;  ///< max angle between the two surfaces' normals
   double max_plane_distance_m = 0.08;  ///< smallest plane-distance tolerance d_min (m)
@@ -62,6 +67,7 @@ struct MapConfig {
 template <class Visitor>
 void visit_fields(MapConfig& c, Visitor&& visit) {
   visit("max_range_m", c.max_range_m);
+  visit("max_depth_sigma_m", c.max_depth_sigma_m);
   visit("max_normal_angle_deg", c.max_normal_angle_deg);
   visit("max_plane_distance_m", c.max_plane_distance_m);
   visit("min_colour_similarity", c.min_colour_similarity);

@@ -135,7 +135,8 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
   for (std::size_t i = 0; i < cells_world.size(); ++i) {
     const Planecell& cell = cells_world[i];
     if (!cell_problem(cell, index_.max_coordinate_m()).empty() ||
-        (vertex_centroid(cell.vertices_m) - camera_centre).norm() > config_.max_range_m) {
+        (vertex_centroid(cell.vertices_m) - camera_centre).norm() > config_.max_range_m ||
+        (config_.max_depth_sigma_m > 0.0 && cell.depth_sigma_m > config_.max_depth_sigma_m)) {
       ++report.rejected_cells;
       continue;
     }

@@ -86,6 +86,25 @@ TEST(GlobalMapTest, RejectsCellsBeyondMaxRange) {
   EXPECT_EQ(map.cells().size(), 1u);
 }
 
+TEST(GlobalMapTest, RejectsCellsNoisierThanMaxDepthSigma) {
+  // Three cells at 10 m, apart from each other, with σ_Z 0.5, 0.7 m and unknown (0).
+  std::vector<Planecell> cells = {rect_cell(0, {0, 1.5f, 10}, kX, kZ, 0),
+                                  rect_cell(1, {5, 1.5f, 10}, kX, kZ, 0),
+                                  rect_cell(2, {-5, 1.5f, 10}, kX, kZ, 0)};
+  cells[0].depth_sigma_m = 0.5f;
+  cells[1].depth_sigma_m = 0.7f;
+  for (const double gate : {0.6, 0.0}) {
+    SCOPED_TRACE(gate);
+    MapConfig config;
+    config.max_depth_sigma_m = gate;  // 0: no gate
+    GlobalMap map(config);
+    const auto report = map.integrate(1, Pose::Identity(), cells);
+    EXPECT_EQ(report.rejected_cells, gate > 0.0 ? 1u : 0u);
+    EXPECT_EQ(map.cells().size(), gate > 0.0 ? 2u : 3u);
+    EXPECT_EQ(report.cell_surfaces[1] == kNoSurface, gate > 0.0);
+  }
+}
+
 TEST(GlobalMapQueries, DistanceToNearestCellInsideAndOutsideThePolygon) {
   GlobalMap map;
   // Ground square y = 0, x, z ∈ [0, 2].
