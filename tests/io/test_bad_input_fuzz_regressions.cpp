@@ -6,6 +6,7 @@
 
 #include <fstream>
 #include <string>
+#include <vector>
 
 #include "core/error.hpp"
 #include "io/euroc.hpp"
@@ -20,6 +21,14 @@ namespace planecell::io {
 namespace {
 
 using test::input_error_of;
+
+/// The bytes of a fuzzer finding written inline as hex ("03e844…").
+std::vector<std::uint8_t> bytes_of_hex(const std::string& hex) {
+  std::vector<std::uint8_t> bytes;
+  for (std::size_t i = 0; i + 1 < hex.size(); i += 2)
+    bytes.push_back(static_cast<std::uint8_t>(std::stoi(hex.substr(i, 2), nullptr, 16)));
+  return bytes;
+}
 
 void write_text(const std::filesystem::path& path, const std::string& text) {
   std::ofstream(path, std::ios::binary) << text;
@@ -174,9 +183,7 @@ TEST(FuzzRegression, LcmMapUpdateWithACellAtTenToTheThirtyOneMetres) {
       "000000000000000000000000000000000000000000000000000000000000000000000000000000000000000000000000"
       "019000000000000000000000000000000001000000010000000000000000000000010000000100000000000000010000"
       "0001";
-  std::vector<std::uint8_t> bytes;
-  for (std::size_t i = 0; i + 1 < hex.size(); i += 2)
-    bytes.push_back(static_cast<std::uint8_t>(std::stoi(hex.substr(i, 2), nullptr, 16)));
+  const std::vector<std::uint8_t> bytes = bytes_of_hex(hex);
   ASSERT_EQ(bytes.front() % 4, 2);  // fuzz_lcm's selector: map_update_t
   io::MapUpdateAssembler assembler;
   const auto update = assembler.add(io::decode_map_update(std::span(bytes).subspan(1)));
@@ -199,9 +206,7 @@ TEST(FuzzRegression, LcmMapStatsWithAHugeQueueCount) {
       "03e8441ba7abe8fe55000000000000000000000000000000000000000000000000000000000000000000000000000000"
       "000000000000000000000000010000000473676d0042700000428c0000000200003a2f2f000000000000000000000000"
       "0000";
-  std::vector<std::uint8_t> bytes;
-  for (std::size_t i = 0; i + 1 < hex.size(); i += 2)
-    bytes.push_back(static_cast<std::uint8_t>(std::stoi(hex.substr(i, 2), nullptr, 16)));
+  const std::vector<std::uint8_t> bytes = bytes_of_hex(hex);
   ASSERT_EQ(bytes.front() % 4, 3);  // fuzz_lcm's selector: map_stats_t
   EXPECT_CONTAINS(input_error_of([&] { (void)io::decode_map_stats(std::span(bytes).subspan(1)); }),
                   "map_stats_t: 97 bytes are not one whole message");
