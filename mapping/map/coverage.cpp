@@ -21,25 +21,33 @@ bool nearly_coplanar(const Planecell& cell, const Planecell& old, double max_ang
   return sum_sq <= max_distance_m * max_distance_m * static_cast<double>(old.vertices_m.size());
 }
 
-namespace {
-
-/// Even-odd rule: is (x, y) inside the closed ring?
-bool inside(const std::vector<Eigen::Vector2d>& ring, double x, double y) {
-  bool in = false;
-  for (std::size_t a = 0, b = ring.size() - 1; a < ring.size(); b = a++) {
-    const Eigen::Vector2d& p = ring[a];
-    const Eigen::Vector2d& q = ring[b];
-    if ((p.y() > y) != (q.y() > y) && x < (q.x() - p.x()) * (y - p.y()) / (q.y() - p.y()) + p.x())
-      in = !in;
-  }
-  return in;
+double covered_fraction(const Planecell& cell, const CoverageTest& covered, int samples) {
+  if (cell.vertices_m.size() < 3 || samples < 1) return 0.0;
+  const PlaneBasis basis = make_basis(cell.plane, vertex_centroid(cell.vertices_m));
+  const auto ring = project_to_basis(cell.vertices_m, basis);
+  Eigen::Vector2d lo = ring.front(), hi = ring.front();
+  for (const auto& p : ring) lo = lo.cwiseMin(p), hi = hi.cwiseMax(p);
+  // A square grid of about `samples` points over the cell's bounding box (centres of its squares).
+  const Eigen::Vector2d size = hi - lo;
+  const double area = polygon_area_m2(cell.vertices_m);
+  if (!(area > 0.0) || !std::isfinite(area)) return 0.0;
+  const double step = std::max(std::sqrt(size.x() * size.y() / samples), 1e-6);
+  const int nx = std::clamp(static_cast<int>(std::ceil(size.x() / step)), 1, 4 * samples);
+  const int ny = std::clamp(static_cast<int>(std::ceil(size.y() / step)), 1, 4 * samples);
+  int own = 0, hits = 0;
+  for (int j = 0; j < ny; ++j)
+    for (int i = 0; i < nx; ++i) {
+      const Eigen::Vector2d st(lo.x() + (i + 0.5) * size.x() / nx, lo.y() + (j + 0.5) * size.y() / ny);
+      if (!point_in_ring(ring, st)) continue;
+      ++own;
+      if (covered(st, basis)) ++hits;
+    }
+  return own > 0 ? static_cast<double>(hits) / own : 0.0;
 }
-
-}  // namespace
 
 double covered_fraction(const Planecell& cell, std::span<const Planecell* const> covering,
                         int samples) {
-  if (covering.empty() || cell.vertices_m.size() < 3 || samples < 1) return 0.0;
+  if (covering.empty() || cell.vertices_m.size() < 3) return 0.0;
   const PlaneBasis basis = make_basis(cell.plane, vertex_centroid(cell.vertices_m));
   const auto ring = project_to_basis(cell.vertices_m, basis);
   Eigen::Vector2d lo = ring.front(), hi = ring.front();
@@ -54,26 +62,13 @@ double covered_fraction(const Planecell& cell, std::span<const Planecell* const>
       rings.push_back(std::move(r));
   }
   if (rings.empty()) return 0.0;
-  // A square grid of about `samples` points over the cell's bounding box (centres of its squares).
-  const Eigen::Vector2d size = hi - lo;
-  const double area = polygon_area_m2(cell.vertices_m);
-  if (!(area > 0.0) || !std::isfinite(area)) return 0.0;
-  const double step = std::max(std::sqrt(size.x() * size.y() / samples), 1e-6);
-  const int nx = std::clamp(static_cast<int>(std::ceil(size.x() / step)), 1, 4 * samples);
-  const int ny = std::clamp(static_cast<int>(std::ceil(size.y() / step)), 1, 4 * samples);
-  int own = 0, covered = 0;
-  for (int j = 0; j < ny; ++j)
-    for (int i = 0; i < nx; ++i) {
-      const double x = lo.x() + (i + 0.5) * size.x() / nx, y = lo.y() + (j + 0.5) * size.y() / ny;
-      if (!inside(ring, x, y)) continue;
-      ++own;
-      for (const auto& r : rings)
-        if (inside(r, x, y)) {
-          ++covered;
-          break;
-        }
-    }
-  return own > 0 ? static_cast<double>(covered) / own : 0.0;
+  return covered_fraction(
+      cell,
+      [&](const Eigen::Vector2d& st, const PlaneBasis&) {
+        return std::any_of(rings.begin(), rings.end(),
+                           [&](const auto& r) { return point_in_ring(r, st); });
+      },
+      samples);
 }
 
 }  // namespace planecell::map

@@ -2,9 +2,11 @@
 /// Re-observation by coverage: how much of a new planecell the map already holds. A cell whose
 /// polygon is mostly covered by nearly coplanar stored cells (whatever their surface label) adds no
 /// new space to the map, so the map grows with the area explored, not with the number of frames.
+#include <functional>
 #include <span>
 
 #include "core/planecell.hpp"
+#include "mapping/map/geometry.hpp"
 
 namespace planecell::map {
 
@@ -20,5 +22,13 @@ bool nearly_coplanar(const Planecell& cell, const Planecell& old, double max_ang
 /// polygons' sizes in metres.
 double covered_fraction(const Planecell& cell, std::span<const Planecell* const> covering,
                         int samples = 64);
+
+/// Whether the grid point `st` of a cell's polygon (in the cell's own plane basis: 3D point
+/// basis.to_3d(st)) is covered by something the map holds.
+using CoverageTest = std::function<bool(const Eigen::Vector2d& st, const PlaneBasis& basis)>;
+
+/// The same grid estimate with any coverage test: |{grid points in cell with covered(st)}| /
+/// |{grid points in cell}|; 0 when no grid point falls inside the cell.
+double covered_fraction(const Planecell& cell, const CoverageTest& covered, int samples = 64);
 
 }  // namespace planecell::map

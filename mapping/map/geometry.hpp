@@ -64,6 +64,9 @@ Eigen::Vector3d vertex_centroid(std::span<const Eigen::Vector3f> vertices);
 /// The vertices projected orthogonally into `basis`: (s, t) = basis.to_2d(v), same order.
 std::vector<Eigen::Vector2d> project_to_basis(std::span<const Eigen::Vector3f> vertices, const PlaneBasis& basis);
 
+/// Even-odd rule: is `p` inside the ring (either orientation, closing vertex optional)?
+bool point_in_ring(std::span<const Eigen::Vector2d> ring, const Eigen::Vector2d& p);
+
 /// Distance (m) of `point` to the planar polygon `vertices` lying on `plane`:
 ///   the paper's point-to-plane distance |n·p + e| when p's projection onto the plane falls inside
 ///   the polygon; otherwise the distance to the nearest point of the polygon's boundary edges.

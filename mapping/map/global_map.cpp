@@ -76,6 +76,70 @@ bool surfaces_equal(const Surface& a, const Surface& b) {
   return true;
 }
 
+/// Effective depth noise of a surface's observations, √(Σ area_i / Σ (area_i / σ_i²)) (m; see
+/// LabelState::sigma_m), 0 when unknown.
+double surface_sigma_m(const Surface& surface) {
+  return surface.moments.weight > 0.0 ? std::sqrt(surface.observed_area_m2 / surface.moments.weight)
+                                      : 0.0;
+}
+
+/// Surface `surface` may cover `cell`: normals within max_angle_deg, and the RMS distance of
+/// cell's vertices to the surface's plane, √(Σ (n·v + e)² / K), within max_distance_m.
+bool surface_covers_plane(const Surface& surface, const Planecell& cell, double max_angle_deg,
+                          double max_distance_m) {
+  if (surface.footprint.empty() || cell.vertices_m.empty()) return false;
+  if (std::abs(surface.plane.normal.dot(cell.plane.normal)) < std::cos(max_angle_deg * M_PI / 180.0))
+    return false;
+  double sum_sq = 0.0;
+  for (const auto& v : cell.vertices_m) {
+    const double d = surface.plane.signed_distance(v.cast<double>());
+    sum_sq += d * d;
+  }
+  return sum_sq <= max_distance_m * max_distance_m * static_cast<double>(cell.vertices_m.size());
+}
+
+/// How much of a new cell the map already holds, and where.
+struct Coverage {
+  double fraction = 0.0;             ///< share of the cell's grid points covered
+  std::uint32_t surface = kNoSurface; ///< the surface covering most of them
+};
+
+/// Share of `cell` lying in a covering stored cell's polygon (projected onto cell's plane) or in a
+/// covering surface's footprint (cell's points projected orthogonally onto the surface's basis),
+/// and the surface that covers most grid points (a stored cell counts for its surface).
+Coverage coverage_of(const Planecell& cell, std::span<const Planecell* const> cells,
+                     std::span<const Surface* const> surfaces) {
+  const PlaneBasis own = make_basis(cell.plane, vertex_centroid(cell.vertices_m));
+  std::vector<std::vector<Eigen::Vector2d>> rings;
+  rings.reserve(cells.size());
+  for (const Planecell* old : cells) rings.push_back(project_to_basis(old->vertices_m, own));
+  std::map<std::uint32_t, int> hits;  // by surface id: ties go to the oldest surface
+  Coverage c;
+  c.fraction = covered_fraction(cell, [&](const Eigen::Vector2d& st, const PlaneBasis& basis) {
+    bool any = false;
+    for (std::size_t i = 0; i < cells.size(); ++i)
+      if (rings[i].size() >= 3 && point_in_ring(rings[i], st)) {
+        ++hits[cells[i]->surface];
+        any = true;
+        break;
+      }
+    if (any) return true;
+    const Eigen::Vector3d p = basis.to_3d(st);
+    for (const Surface* s : surfaces) {
+      const Eigen::Vector2d q = s->basis.to_2d(p);
+      if (s->footprint.contains(q.x(), q.y())) {
+        ++hits[s->id];
+        return true;
+      }
+    }
+    return false;
+  });
+  int best = 0;
+  for (const auto& [id, n] : hits)
+    if (n > best) best = n, c.surface = id;
+  return c;
+}
+
 }  // namespace
 
 GlobalMap::GlobalMap(const MapConfig& config)
@@ -187,6 +251,7 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
   std::unordered_map<std::uint32_t, std::uint32_t> unit_of_map_cell;
   std::vector<std::vector<const Planecell*>> covering(fresh.size());  ///< stored, nearly coplanar
   std::vector<std::vector<const Planecell*>> superseded(fresh.size());  ///< ... and much less precise
+  std::vector<std::vector<std::uint32_t>> covering_surfaces(fresh.size());  ///< nearly coplanar
   for (std::size_t k = 0; k < fresh.size(); ++k) {
     for (std::uint32_t id : index_.query(bounds_of(fresh[k]->vertices_m).inflated(gap))) {
       const Planecell& old = cells_.at(id);
@@ -221,6 +286,21 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
         if (nearly_coplanar(cell, old, angle_deg, tol) &&
             polygon_gap_m(cell.plane, cell.vertices_m, old.plane, old.vertices_m) <= tol)
           (less_precise ? superseded[k] : covering[k]).push_back(&old);
+        // The surface of a nearby cell covers the cell where its footprint (every observation
+        // fused into it, stored or not) holds the cell's points, when its plane passes within the
+        // cell's own noise (not widened to the neighbour gap: the footprint may hold noisy views)
+        // and it is not much less precise than the cell (then the cell is stored, as above).
+        auto& candidates = covering_surfaces[k];
+        if (std::find(candidates.begin(), candidates.end(), old.surface) != candidates.end())
+          continue;
+        const Surface& surface = surfaces_.at(old.surface);
+        const double own_noise = config_.redundant_sigma_factor * cell.depth_sigma_m;
+        // (σ floored like the surface's moments: at residual_scale_m)
+        const double cell_sigma = std::max<double>(cell.depth_sigma_m, config_.residual_scale_m);
+        if (surface_sigma_m(surface) <= config_.redundant_precision_ratio * cell_sigma &&
+            surface_covers_plane(surface, cell, angle_deg,
+                                 std::clamp(own_noise, config_.residual_scale_m, reach)))
+          candidates.push_back(old.surface);
       }
     }
   }
@@ -254,11 +334,21 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
     const std::uint32_t root = union_find.find(units[k].label);
     // Space the map already holds (any surface): a re-observation, fused without being stored,
     // into its own label's surface when that exists already, else into the first covering cell's.
-    const bool redundant = config_.redundant_coverage <= 1.0 && !covering[k].empty() &&
-                           covered_fraction(cell, covering[k]) >= config_.redundant_coverage;
-    if (redundant && !surfaces_.contains(root) &&
-        surfaces_.contains(covering[k].front()->surface)) {
-      report.cell_surfaces[fresh_input[k]] = covering[k].front()->surface;
+    std::vector<const Surface*> covering_surface;  // alive after step 4's merges
+    for (std::uint32_t id : covering_surfaces[k]) {
+      const auto it = surfaces_.find(union_find.find(id));
+      if (it != surfaces_.end() &&
+          std::find(covering_surface.begin(), covering_surface.end(), &it->second) == covering_surface.end())
+        covering_surface.push_back(&it->second);
+    }
+    const Coverage coverage = config_.redundant_coverage <= 1.0 &&
+                                      (!covering[k].empty() || !covering_surface.empty())
+                                  ? coverage_of(cell, covering[k], covering_surface)
+                                  : Coverage{};
+    const bool redundant = coverage.fraction >= config_.redundant_coverage;
+    const std::uint32_t cover_surface = coverage.surface;
+    if (redundant && !surfaces_.contains(root) && surfaces_.contains(cover_surface)) {
+      report.cell_surfaces[fresh_input[k]] = cover_surface;
       ++report.fused_cells;
       ++report.redundant_cells;
       continue;

@@ -76,6 +76,32 @@ TEST(Coverage, MapDoesNotStoreSpaceItAlreadyHoldsWhateverTheLabel) {
   }
 }
 
+/// Space the map holds only through a fused (unstored) observation still counts: coverage reads
+/// the surfaces' footprints, not just the stored polygons.
+TEST(Coverage, SpaceHeldOnlyByAFusedObservationIsNotStoredAgain) {
+  GlobalMap map;
+  (void)map.integrate(0, Pose::Identity(), std::vector{road(0, 0)});  // x ∈ [0, 1], stored
+  ASSERT_EQ(map.cells().size(), 1u);
+  const std::uint32_t surface = map.cells().at(0).surface;
+  // x ∈ [0.2, 1.2]: same surface, adds 0.2 m² (< fuse_new_area_fraction): fused, not stored, but
+  // its area enters the footprint (x ∈ [0, 1.2]).
+  const auto fused = map.integrate(1, Pose::Identity(), std::vector{road(0, 0.2f)});
+  ASSERT_EQ(fused.fused_cells, 1u);
+  ASSERT_TRUE(fused.added_cells.empty());
+  // x ∈ [0.35, 1.35] in another colour (no CRF merge): the stored polygon covers 65 % of it (below
+  // redundant_coverage 0.75), the footprint 85 %: a re-observation, fused into that surface.
+  const auto again = map.integrate(2, Pose::Identity(), std::vector{road(0, 0.35f, 1.0f, 30)});
+  EXPECT_EQ(again.redundant_cells, 1u);
+  EXPECT_TRUE(again.added_cells.empty());
+  EXPECT_EQ(again.cell_surfaces[0], surface);
+  EXPECT_EQ(map.cells().size(), 1u);
+  EXPECT_EQ(map.surfaces().size(), 1u);
+  // Shifted on to x ∈ [0.6, 1.6], only 60 % lies in the footprint: new space, stored.
+  const auto beyond = map.integrate(3, Pose::Identity(), std::vector{road(0, 0.6f, 1.0f, 30)});
+  EXPECT_EQ(beyond.redundant_cells, 0u);
+  EXPECT_EQ(beyond.added_cells.size(), 1u);
+}
+
 TEST(Coverage, NearPreciseCellsReplaceAFarNoisyCellTheyCover) {
   MapConfig config;
   GlobalMap map(config);
