@@ -357,7 +357,11 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
     Surface& surface = it->second;
     if (created) {
       surface.id = root;
+      // The first cell lands mid-tile (its centroid half a tile from the basis origin along u and
+      // v), not on the corner of four footprint tiles.
       surface.basis = make_basis(labels.at(root).plane, vertex_centroid(cell.vertices_m));
+      const double half_tile_m = 0.5 * FootprintTile::kSize * config_.footprint_resolution_m;
+      surface.basis.origin -= half_tile_m * (surface.basis.u + surface.basis.v);
       surface.footprint = Footprint(config_.footprint_resolution_m);
     }
     touched.insert(root);

@@ -105,6 +105,21 @@ TEST(GlobalMapTest, RejectsCellsNoisierThanMaxDepthSigma) {
   }
 }
 
+/// A new surface's footprint basis puts its first cell mid-tile: a 1 m cell (10 × 10 bits of
+/// 10 cm) fills one 32 × 32-bit tile, not the corners of four around the basis origin.
+TEST(GlobalMapTest, FirstCellOfASurfaceFillsOneFootprintTile) {
+  GlobalMap map;
+  map.integrate(0, Pose::Identity(), std::vector<Planecell>{rect_cell(0, {0, 1.5f, 5}, kX, kZ, 0)});
+  ASSERT_EQ(map.surfaces().size(), 1u);
+  const Surface& surface = map.surfaces().begin()->second;
+  EXPECT_EQ(surface.footprint.tiles().size(), 1u);
+  EXPECT_NEAR(surface.area_m2, 1.0, 0.25);  // 10 cm bits along a 1 m square's edges
+  // The cell's centre is half a tile (1.6 m) from the basis origin along both axes.
+  const Eigen::Vector2d centre = surface.basis.to_2d(Eigen::Vector3d(0.5, 1.5, 5.5));
+  EXPECT_NEAR(std::abs(centre.x()), 1.6, 1e-6);
+  EXPECT_NEAR(std::abs(centre.y()), 1.6, 1e-6);
+}
+
 TEST(GlobalMapQueries, DistanceToNearestCellInsideAndOutsideThePolygon) {
   GlobalMap map;
   // Ground square y = 0, x, z ∈ [0, 2].
