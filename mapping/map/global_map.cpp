@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cmath>
 #include <map>
+#include <optional>
 #include <set>
 #include <string>
 
@@ -248,60 +249,61 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
                          std::sqrt(std::min(fresh_area[k], fresh_area[j]))});
       }
   }
+  // Stored cells near each new cell, in one index query: neighbour edges (within the gap) and
+  // the cells and surfaces that may cover it (re-observation by coverage, step 5).
   std::unordered_map<std::uint32_t, std::uint32_t> unit_of_map_cell;
   std::vector<std::vector<const Planecell*>> covering(fresh.size());  ///< stored, nearly coplanar
   std::vector<std::vector<const Planecell*>> superseded(fresh.size());  ///< ... and much less precise
   std::vector<std::vector<std::uint32_t>> covering_surfaces(fresh.size());  ///< nearly coplanar
+  const bool coverage_rule = config_.redundant_coverage <= 1.0;
+  const double reach = coverage_rule ? std::max(gap, config_.redundant_max_distance_m) : gap;
   for (std::size_t k = 0; k < fresh.size(); ++k) {
-    for (std::uint32_t id : index_.query(bounds_of(fresh[k]->vertices_m).inflated(gap))) {
+    const Planecell& cell = *fresh[k];
+    const Aabb box = bounds_of(cell.vertices_m);
+    const Aabb near_box = box.inflated(gap);
+    for (std::uint32_t id : index_.query(box.inflated(reach))) {
       const Planecell& old = cells_.at(id);
-      if (polygon_gap_m(fresh[k]->plane, fresh[k]->vertices_m, old.plane, old.vertices_m) > gap)
+      std::optional<double> gap_m;  // polygon_gap_m of the pair, computed at most once
+      auto gap_to_old = [&] {
+        if (!gap_m) gap_m = polygon_gap_m(cell.plane, cell.vertices_m, old.plane, old.vertices_m);
+        return *gap_m;
+      };
+      if (near_box.overlaps(bounds_of(old.vertices_m)) && gap_to_old() <= gap) {
+        auto [it, inserted] = unit_of_map_cell.try_emplace(id, static_cast<std::uint32_t>(units.size()));
+        if (inserted) {
+          units.push_back({old.surface, &old, polygon_area_m2(old.vertices_m)});
+          if (!labels.contains(old.surface)) labels.emplace(old.surface, state_of_surface(surfaces_.at(old.surface)));
+        }
+        edges.push_back({static_cast<std::uint32_t>(k), it->second,
+                         std::sqrt(std::min(fresh_area[k], units[it->second].area_m2))});
+      }
+      if (!coverage_rule) continue;
+      const double sigma = std::hypot(static_cast<double>(cell.depth_sigma_m),
+                                      static_cast<double>(old.depth_sigma_m));
+      const bool less_precise =
+          old.depth_sigma_m > config_.redundant_precision_ratio * cell.depth_sigma_m;
+      const double noise = config_.redundant_sigma_factor * sigma;
+      const double tol = std::clamp(noise, gap, reach);
+      const double base_deg = config_.redundant_normal_angle_deg;
+      const double angle_deg =
+          std::min(2.0 * base_deg, base_deg + std::atan(noise / std::sqrt(fresh_area[k])) * 180.0 / M_PI);
+      if (nearly_coplanar(cell, old, angle_deg, tol) && gap_to_old() <= tol)
+        (less_precise ? superseded[k] : covering[k]).push_back(&old);
+      // The surface of a nearby cell covers the cell where its footprint (every observation
+      // fused into it, stored or not) holds the cell's points, when its plane passes within the
+      // cell's own noise (not widened to the neighbour gap: the footprint may hold noisy views)
+      // and it is not much less precise than the cell (then the cell is stored, as above).
+      auto& candidates = covering_surfaces[k];
+      if (std::find(candidates.begin(), candidates.end(), old.surface) != candidates.end())
         continue;
-      auto [it, inserted] = unit_of_map_cell.try_emplace(id, static_cast<std::uint32_t>(units.size()));
-      if (inserted) {
-        units.push_back({old.surface, &old, polygon_area_m2(old.vertices_m)});
-        if (!labels.contains(old.surface)) labels.emplace(old.surface, state_of_surface(surfaces_.at(old.surface)));
-      }
-      edges.push_back({static_cast<std::uint32_t>(k), it->second,
-                       std::sqrt(std::min(fresh_area[k], units[it->second].area_m2))});
-    }
-  }
-
-  // Stored cells that may cover each new cell (re-observation by coverage, step 5).
-  if (config_.redundant_coverage <= 1.0) {
-    const double reach = std::max(gap, config_.redundant_max_distance_m);
-    for (std::size_t k = 0; k < fresh.size(); ++k) {
-      const Planecell& cell = *fresh[k];
-      for (std::uint32_t id : index_.query(bounds_of(cell.vertices_m).inflated(reach))) {
-        const Planecell& old = cells_.at(id);
-        const double sigma = std::hypot(static_cast<double>(cell.depth_sigma_m),
-                                        static_cast<double>(old.depth_sigma_m));
-        const bool less_precise =
-            old.depth_sigma_m > config_.redundant_precision_ratio * cell.depth_sigma_m;
-        const double noise = config_.redundant_sigma_factor * sigma;
-        const double tol = std::clamp(noise, gap, reach);
-        const double base_deg = config_.redundant_normal_angle_deg;
-        const double angle_deg =
-            std::min(2.0 * base_deg, base_deg + std::atan(noise / std::sqrt(fresh_area[k])) * 180.0 / M_PI);
-        if (nearly_coplanar(cell, old, angle_deg, tol) &&
-            polygon_gap_m(cell.plane, cell.vertices_m, old.plane, old.vertices_m) <= tol)
-          (less_precise ? superseded[k] : covering[k]).push_back(&old);
-        // The surface of a nearby cell covers the cell where its footprint (every observation
-        // fused into it, stored or not) holds the cell's points, when its plane passes within the
-        // cell's own noise (not widened to the neighbour gap: the footprint may hold noisy views)
-        // and it is not much less precise than the cell (then the cell is stored, as above).
-        auto& candidates = covering_surfaces[k];
-        if (std::find(candidates.begin(), candidates.end(), old.surface) != candidates.end())
-          continue;
-        const Surface& surface = surfaces_.at(old.surface);
-        const double own_noise = config_.redundant_sigma_factor * cell.depth_sigma_m;
-        // (σ floored like the surface's moments: at residual_scale_m)
-        const double cell_sigma = std::max<double>(cell.depth_sigma_m, config_.residual_scale_m);
-        if (surface_sigma_m(surface) <= config_.redundant_precision_ratio * cell_sigma &&
-            surface_covers_plane(surface, cell, angle_deg,
-                                 std::clamp(own_noise, config_.residual_scale_m, reach)))
-          candidates.push_back(old.surface);
-      }
+      const Surface& surface = surfaces_.at(old.surface);
+      const double own_noise = config_.redundant_sigma_factor * cell.depth_sigma_m;
+      // (σ floored like the surface's moments: at residual_scale_m)
+      const double cell_sigma = std::max<double>(cell.depth_sigma_m, config_.residual_scale_m);
+      if (surface_sigma_m(surface) <= config_.redundant_precision_ratio * cell_sigma &&
+          surface_covers_plane(surface, cell, angle_deg,
+                               std::clamp(own_noise, config_.residual_scale_m, reach)))
+        candidates.push_back(old.surface);
     }
   }
 
