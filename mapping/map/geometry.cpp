@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <optional>
 
 namespace planecell::map {
 
@@ -116,6 +117,31 @@ double polygon_gap_m(const Plane3& plane_a, std::span<const Eigen::Vector3f> a,
   for (const auto& v : a) best = std::min(best, distance_to_outline(v.cast<double>(), plane_b, basis_b, poly_b, b));
   for (const auto& v : b) best = std::min(best, distance_to_outline(v.cast<double>(), plane_a, basis_a, poly_a, a));
   return best;
+}
+
+bool polygons_within_m(const Plane3& plane_a, std::span<const Eigen::Vector3f> a,
+                       const Plane3& plane_b, std::span<const Eigen::Vector3f> b, double max_m) {
+  if (a.size() < 3 || b.size() < 3) return false;
+  /// Is some vertex of `from` within max_m of the polygon `to` (on `plane`)?
+  auto any_vertex_within = [max_m](std::span<const Eigen::Vector3f> from, const Plane3& plane,
+                                   std::span<const Eigen::Vector3f> to) {
+    const Aabb box = bounds_of(to);
+    std::optional<std::pair<PlaneBasis, Polygon2>> outline;  // built for the first vertex that needs it
+    for (const auto& vf : from) {
+      const Eigen::Vector3d v = vf.cast<double>();
+      const Eigen::Vector3d outside =
+          (box.min - v).cwiseMax(v - box.max).cwiseMax(Eigen::Vector3d::Zero());
+      if (outside.norm() > max_m || std::abs(plane.signed_distance(v)) > max_m) continue;
+      if (!outline) {
+        PlaneBasis basis = make_basis(plane, to[0].cast<double>());
+        Polygon2 poly = to_polygon2(to, basis);
+        outline.emplace(std::move(basis), std::move(poly));
+      }
+      if (distance_to_outline(v, plane, outline->first, outline->second, to) <= max_m) return true;
+    }
+    return false;
+  };
+  return any_vertex_within(a, plane_b, b) || any_vertex_within(b, plane_a, a);
 }
 
 }  // namespace planecell::map

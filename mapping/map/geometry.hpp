@@ -78,6 +78,13 @@ double distance_to_polygon(const Eigen::Vector3d& point, const Plane3& plane,
 double polygon_gap_m(const Plane3& plane_a, std::span<const Eigen::Vector3f> a,
                      const Plane3& plane_b, std::span<const Eigen::Vector3f> b);
 
+/// polygon_gap_m(a, b) ≤ max_m, decided without computing the whole minimum: a vertex v is
+/// skipped when a lower bound of its distance to the other polygon already exceeds max_m (its
+/// distance to that polygon's bounding box, or to its plane, |n·v + e|), and the test stops at the
+/// first vertex within max_m.
+bool polygons_within_m(const Plane3& plane_a, std::span<const Eigen::Vector3f> a,
+                       const Plane3& plane_b, std::span<const Eigen::Vector3f> b, double max_m);
+
 /// Distance (m) of a point to the segment [a, b].
 double point_segment_distance(const Eigen::Vector3d& p, const Eigen::Vector3d& a,
                               const Eigen::Vector3d& b);

@@ -4,7 +4,6 @@
 #include <chrono>
 #include <cmath>
 #include <map>
-#include <optional>
 #include <set>
 #include <string>
 
@@ -250,7 +249,7 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
       }
   }
   // Stored cells near each new cell, in one index query: neighbour edges (within the gap) and
-  // the cells and surfaces that may cover it (re-observation by coverage, step 5).
+  // the cells and surfaces that may cover it (re-observation by coverage, step 5; tol ≥ gap).
   std::unordered_map<std::uint32_t, std::uint32_t> unit_of_map_cell;
   std::vector<std::vector<const Planecell*>> covering(fresh.size());  ///< stored, nearly coplanar
   std::vector<std::vector<const Planecell*>> superseded(fresh.size());  ///< ... and much less precise
@@ -263,12 +262,9 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
     const Aabb near_box = box.inflated(gap);
     for (std::uint32_t id : index_.query(box.inflated(reach))) {
       const Planecell& old = cells_.at(id);
-      std::optional<double> gap_m;  // polygon_gap_m of the pair, computed at most once
-      auto gap_to_old = [&] {
-        if (!gap_m) gap_m = polygon_gap_m(cell.plane, cell.vertices_m, old.plane, old.vertices_m);
-        return *gap_m;
-      };
-      if (near_box.overlaps(bounds_of(old.vertices_m)) && gap_to_old() <= gap) {
+      const bool neighbour = near_box.overlaps(bounds_of(old.vertices_m)) &&
+                             polygons_within_m(cell.plane, cell.vertices_m, old.plane, old.vertices_m, gap);
+      if (neighbour) {
         auto [it, inserted] = unit_of_map_cell.try_emplace(id, static_cast<std::uint32_t>(units.size()));
         if (inserted) {
           units.push_back({old.surface, &old, polygon_area_m2(old.vertices_m)});
@@ -287,7 +283,8 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
       const double base_deg = config_.redundant_normal_angle_deg;
       const double angle_deg =
           std::min(2.0 * base_deg, base_deg + std::atan(noise / std::sqrt(fresh_area[k])) * 180.0 / M_PI);
-      if (nearly_coplanar(cell, old, angle_deg, tol) && gap_to_old() <= tol)
+      if (nearly_coplanar(cell, old, angle_deg, tol) &&
+          (neighbour || polygons_within_m(cell.plane, cell.vertices_m, old.plane, old.vertices_m, tol)))
         (less_precise ? superseded[k] : covering[k]).push_back(&old);
       // The surface of a nearby cell covers the cell where its footprint (every observation
       // fused into it, stored or not) holds the cell's points, when its plane passes within the

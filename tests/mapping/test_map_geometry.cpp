@@ -1,0 +1,58 @@
+/// Polygon gaps of the map's geometry (mapping/map/geometry): hand-computed distances between
+/// squares, and polygons_within_m deciding exactly polygon_gap_m ≤ max on random pairs.
+#include <gtest/gtest.h>
+
+#include <random>
+
+#include "mapping/map/geometry.hpp"
+#include "support/planecell_fixtures.hpp"
+
+namespace planecell::map {
+namespace {
+
+using test::rect_cell;
+
+const Eigen::Vector3f kX(1, 0, 0), kY(0, 1, 0), kZ(0, 0, 1);
+
+TEST(MapGeometry, GapsBetweenHandPlacedSquares) {
+  const Planecell a = rect_cell(0, {0, 0, 0}, kX, kZ, 0);          // y = 0, x, z ∈ [0, 1]
+  const Planecell beside = rect_cell(1, {1.5f, 0, 0}, kX, kZ, 0);  // 0.5 m along x
+  const Planecell above = rect_cell(2, {0.25f, -0.2f, 0.25f}, 0.5f * kX, 0.5f * kZ, 0);  // 0.2 m over a
+  const Planecell wall = rect_cell(3, {0, -1, 1.3f}, kX, kY, 0);   // vertical, 0.3 m past a's edge
+  EXPECT_NEAR(polygon_gap_m(a.plane, a.vertices_m, beside.plane, beside.vertices_m), 0.5, 1e-6);
+  EXPECT_NEAR(polygon_gap_m(a.plane, a.vertices_m, above.plane, above.vertices_m), 0.2, 1e-6);
+  EXPECT_NEAR(polygon_gap_m(a.plane, a.vertices_m, wall.plane, wall.vertices_m), 0.3, 1e-6);
+  for (const auto& [other, gap] : {std::pair{&beside, 0.5}, {&above, 0.2}, {&wall, 0.3}}) {
+    EXPECT_TRUE(polygons_within_m(a.plane, a.vertices_m, other->plane, other->vertices_m, gap + 1e-3));
+    EXPECT_FALSE(polygons_within_m(a.plane, a.vertices_m, other->plane, other->vertices_m, gap - 1e-3));
+  }
+}
+
+/// Random squares (sizes 0.2–2 m, any orientation, centres within 3 m): the pruned test agrees
+/// with the full minimum at thresholds on both sides of every pair's gap.
+TEST(MapGeometry, WithinTestAgreesWithTheFullGapOnRandomPairs) {
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<float> centre(-1.5f, 1.5f), size(0.2f, 2.0f), unit(-1.0f, 1.0f);
+  auto random_square = [&](std::uint32_t id) {
+    Eigen::Vector3f e1(unit(rng), unit(rng), unit(rng)), e2(unit(rng), unit(rng), unit(rng));
+    e1.normalize();
+    e2 = (e2 - e2.dot(e1) * e1).normalized();
+    return rect_cell(id, {centre(rng), centre(rng), centre(rng)}, size(rng) * e1, size(rng) * e2, 0);
+  };
+  int near_pairs = 0, far_pairs = 0;  // at the fixed 0.3 m threshold
+  for (int trial = 0; trial < 500; ++trial) {
+    const Planecell a = random_square(0), b = random_square(1);
+    const double gap = polygon_gap_m(a.plane, a.vertices_m, b.plane, b.vertices_m);
+    for (const double max_m : {0.1, 0.3, 1.0, gap - 1e-4, gap + 1e-4}) {
+      const bool expected = gap <= max_m;
+      if (max_m == 0.3) (expected ? near_pairs : far_pairs) += 1;
+      ASSERT_EQ(polygons_within_m(a.plane, a.vertices_m, b.plane, b.vertices_m, max_m), expected)
+          << "trial " << trial << " gap " << gap << " max " << max_m;
+    }
+  }
+  EXPECT_GT(near_pairs, 50);  // both outcomes are exercised
+  EXPECT_GT(far_pairs, 50);
+}
+
+}  // namespace
+}  // namespace planecell::map
