@@ -17,6 +17,26 @@ struct ColourSum {
   std::uint64_t r = 0, g = 0, b = 0, count = 0;
 };
 
+/// Size in bytes of the .bt file AbstractOccupancyOcTree::writeBinaryConst writes for `tree`:
+///   "# Octomap OcTree binary file\n# (feel free …)\n#\nid <type>\nsize <n>\nres <r>\ndata\n"
+/// followed by writeBinaryNode(root): 2 bytes (2 bits per child) per node that has children.
+/// Rebuilt here instead of calling writeBinaryConst because its writeBinaryData prints "Writing N
+/// nodes to output stream... done." on stderr in Debian's liboctomap (built with OCTOMAP_DEBUG; the
+/// template is instantiated inside the shared library, so OCTOMAP_NODEBUGOUT here cannot silence
+/// it); writeBinaryNode prints nothing. The header text is octomap 1.9's (binaryFileHeader is
+/// protected); tests check the total against writeBinaryConst's real output.
+std::size_t bt_size_bytes(const octomap::ColorOcTree& tree) {
+  std::ostringstream s;
+  s << "# Octomap OcTree binary file\n"
+    << "# (feel free to add / change comments, but leave the first line as it is!)\n#\n"
+    << "id " << tree.getTreeType() << '\n'
+    << "size " << tree.size() << '\n'
+    << "res " << tree.getResolution() << '\n'
+    << "data\n";
+  if (tree.getRoot()) tree.writeBinaryNode(s, tree.getRoot());
+  return s.str().size();
+}
+
 }  // namespace
 
 ColouredPoints back_project(const cv::Mat& disparity_px, const cv::Mat& image,
@@ -112,11 +132,10 @@ VoxelMapStats VoxelMap::stats() const {
   VoxelMapStats s;
   s.occupied_voxels = occupied_voxels();
   s.memory_bytes = tree_->memoryUsage();
-  std::ostringstream ot, bt;
-  tree_->write(ot);
-  tree_->writeBinaryConst(bt);
+  std::ostringstream ot;
+  tree_->write(ot);  // AbstractOcTree::write / OcTree writeData print nothing
   s.ot_bytes = ot.str().size();
-  s.bt_bytes = bt.str().size();
+  s.bt_bytes = bt_size_bytes(*tree_);
   return s;
 }
 

@@ -49,7 +49,8 @@ struct VoxelMapStats {
   std::size_t occupied_voxels = 0;  ///< at full resolution (pruned leaves counted as 8^k voxels)
   std::size_t memory_bytes = 0;     ///< ColorOcTree::memoryUsage()
   std::size_t ot_bytes = 0;         ///< size of the full .ot serialisation (with colour)
-  std::size_t bt_bytes = 0;         ///< size of the binary .bt serialisation (occupancy only)
+  std::size_t bt_bytes = 0;  ///< size of the binary .bt serialisation (occupancy only), as
+                             ///< writeBinaryConst writes it (counted without calling it)
 };
 
 class VoxelMap {
@@ -68,6 +69,7 @@ class VoxelMap {
   /// Throws InputError when points and colours differ in count.
   VoxelInsertStats insert(const ColouredPoints& points);
 
+  /// Sizes of the map; prints nothing (OctoMap's debug-enabled writeBinaryConst is not called).
   VoxelMapStats stats() const;
   std::size_t occupied_voxels() const;
   /// Colour of the occupied voxel containing `point`, nullopt when none.

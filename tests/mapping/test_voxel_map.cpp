@@ -4,6 +4,9 @@
 
 #include <octomap/ColorOcTree.h>
 
+#include <cmath>
+#include <sstream>
+
 #include "core/error.hpp"
 #include "mapping/voxel/voxel_map.hpp"
 
@@ -46,6 +49,38 @@ TEST_P(VoxelModes, PlanePointsOccupyTheExpectedVoxelsWithTheirColour) {
   EXPECT_EQ(sizes.memory_bytes, map.tree().memoryUsage());
   EXPECT_GT(sizes.ot_bytes, sizes.bt_bytes);  // .ot carries colour, .bt two bits per node
   EXPECT_GT(sizes.bt_bytes, 0u);
+}
+
+/// .bt size of the tree as OctoMap itself writes it (prints a debug line on stderr).
+std::size_t written_bt_bytes(const octomap::ColorOcTree& tree) {
+  std::ostringstream bt;
+  tree.writeBinaryConst(bt);
+  return bt.str().size();
+}
+
+TEST_P(VoxelModes, StatsCountsTheBtSizeExactlyWithoutPrinting) {
+  VoxelConfig config;
+  config.ray_casting = GetParam();
+  VoxelMap map(config);
+  // 300 points on a helix of radius 1.5 m about the z axis, z from 2 m to 5 m: scattered voxels in
+  // four octants, with free space carved along the rays in ray-casting mode.
+  ColouredPoints pts;
+  for (int i = 0; i < 300; ++i) {
+    const float t = 0.07f * i;
+    pts.points_m.emplace_back(1.5f * std::cos(t), 1.5f * std::sin(t), 2.0f + 0.01f * i);
+    pts.rgb.push_back(Rgb{static_cast<std::uint8_t>(i % 256), 80, 160});
+  }
+  map.insert(pts);
+  ::testing::internal::CaptureStderr();
+  const auto sizes = map.stats();
+  EXPECT_EQ(::testing::internal::GetCapturedStderr(), "");
+  EXPECT_GT(sizes.occupied_voxels, 100u);
+  EXPECT_EQ(sizes.bt_bytes, written_bt_bytes(map.tree()));
+}
+
+TEST(VoxelMapTest, EmptyMapBtSizeIsTheHeaderAlone) {
+  VoxelMap map;
+  EXPECT_EQ(map.stats().bt_bytes, written_bt_bytes(map.tree()));
 }
 
 INSTANTIATE_TEST_SUITE_P(Insertion, VoxelModes, ::testing::Values(false, true),
