@@ -17,17 +17,15 @@ namespace {
 constexpr int kBusyTimeoutMs = 5000;
 
 constexpr const char* kFormat = "planecell-map";
-constexpr const char* kVersion = "2";
+constexpr const char* kVersion = "3";  ///< 3: cells keep the map's fields only (map::MapCell)
 
 constexpr const char* kSchema = R"sql(
 CREATE TABLE meta(key TEXT PRIMARY KEY, value TEXT NOT NULL);
 CREATE TABLE frames(frame_id INTEGER PRIMARY KEY, pose BLOB NOT NULL, input_cells INTEGER,
                     added_cells INTEGER, fused_cells INTEGER, merge_ms REAL);
 CREATE TABLE cells(id INTEGER PRIMARY KEY, frame_id INTEGER NOT NULL, surface INTEGER NOT NULL,
-                   has_plane INTEGER NOT NULL, disparity_plane BLOB NOT NULL, plane BLOB NOT NULL,
-                   vertices_px BLOB NOT NULL, vertices_m BLOB NOT NULL, mean_rgb BLOB NOT NULL,
-                   histogram BLOB NOT NULL, area_px INTEGER NOT NULL, inlier_count INTEGER NOT NULL,
-                   inlier_ratio REAL NOT NULL, depth_sigma_m REAL NOT NULL);
+                   plane BLOB NOT NULL, vertices_m BLOB NOT NULL, mean_rgb BLOB NOT NULL,
+                   depth_sigma_m REAL NOT NULL);
 CREATE INDEX cells_by_surface ON cells(surface);
 CREATE VIRTUAL TABLE cell_bounds USING rtree(id, min_x, max_x, min_y, max_y, min_z, max_z);
 CREATE TABLE surfaces(id INTEGER PRIMARY KEY, data BLOB NOT NULL);
@@ -349,23 +347,18 @@ void MapStore::commit_frame(std::uint64_t frame_id, const Pose& T_world_cam,
       run(s, failed);
     }
     {
-      Statement cell(db_, "INSERT INTO cells VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)", *this);
+      Statement cell(db_, "INSERT INTO cells VALUES (?, ?, ?, ?, ?, ?, ?)", *this);
       Statement bounds(db_, "INSERT INTO cell_bounds VALUES (?, ?, ?, ?, ?, ?, ?)", *this);
       for (std::uint32_t id : report.added_cells) {
-        const Planecell* c = map.cell(id);
+        const map::MapCell* c = map.cell(id);
         if (!c) fail(frame + ": added cell " + std::to_string(id) + " is not in the map");
-        Writer dp, plane, rgb, hist;
-        dp.put(c->disparity_plane.a), dp.put(c->disparity_plane.b), dp.put(c->disparity_plane.c);
+        Writer plane, rgb;
         plane.put_matrix(c->plane.normal), plane.put(c->plane.offset);
         rgb.put_matrix(c->mean_rgb);
-        for (float h : c->histogram) hist.put(h);
         cell.bind(1, std::int64_t{id}).bind(2, static_cast<std::int64_t>(c->frame_id))
-            .bind(3, std::int64_t{c->surface}).bind(4, std::int64_t{c->has_plane})
-            .bind(5, dp.bytes).bind(6, plane.bytes).bind(7, encode_vectors(c->vertices_px))
-            .bind(8, encode_vectors(c->vertices_m)).bind(9, rgb.bytes).bind(10, hist.bytes)
-            .bind(11, std::int64_t{c->area_px}).bind(12, std::int64_t{c->inlier_count})
-            .bind(13, static_cast<double>(c->inlier_ratio))
-            .bind(14, static_cast<double>(c->depth_sigma_m));
+            .bind(3, std::int64_t{c->surface}).bind(4, plane.bytes)
+            .bind(5, encode_vectors(c->vertices_m)).bind(6, rgb.bytes)
+            .bind(7, static_cast<double>(c->depth_sigma_m));
         run(cell, failed);
         Eigen::Vector3f lo = Eigen::Vector3f::Constant(std::numeric_limits<float>::max()), hi = -lo;
         for (const auto& v : c->vertices_m) lo = lo.cwiseMin(v), hi = hi.cwiseMax(v);
@@ -377,7 +370,7 @@ void MapStore::commit_frame(std::uint64_t frame_id, const Pose& T_world_cam,
     {
       Statement relabel(db_, "UPDATE cells SET surface = ? WHERE id = ?", *this);
       for (std::uint32_t id : report.relabelled_cells) {
-        const Planecell* c = map.cell(id);
+        const map::MapCell* c = map.cell(id);
         if (!c) fail(frame + ": relabelled cell " + std::to_string(id) + " is not in the map");
         relabel.bind(1, std::int64_t{c->surface}).bind(2, std::int64_t{id});
         run(relabel, failed);
@@ -440,36 +433,23 @@ StoredMap MapStore::load() const {
     if (rc != SQLITE_DONE) fail("cannot read meta");
   }
   {
-    Statement cells(db_, "SELECT id, frame_id, surface, has_plane, disparity_plane, plane, vertices_px, "
-                         "vertices_m, mean_rgb, histogram, area_px, inlier_count, inlier_ratio, "
-                         "depth_sigma_m FROM cells ORDER BY id", *this);
+    Statement cells(db_, "SELECT id, frame_id, surface, plane, vertices_m, mean_rgb, depth_sigma_m "
+                         "FROM cells ORDER BY id", *this);
     while (cells.step(rc)) {
-      Planecell c;
+      map::MapCell c;
       c.id = static_cast<std::uint32_t>(cells.integer(0));
       const std::string what = where + ": cell " + std::to_string(c.id);
       c.frame_id = static_cast<std::uint64_t>(cells.integer(1));
       c.surface = static_cast<std::uint32_t>(cells.integer(2));
-      c.has_plane = cells.integer(3) != 0;
-      Reader dp(cells.blob(4), cells.blob_size(4), what + " disparity plane");
-      c.disparity_plane.a = dp.get<double>(), c.disparity_plane.b = dp.get<double>(),
-      c.disparity_plane.c = dp.get<double>();
-      dp.expect_end();
-      Reader plane(cells.blob(5), cells.blob_size(5), what + " plane");
+      Reader plane(cells.blob(3), cells.blob_size(3), what + " plane");
       plane.get_matrix(c.plane.normal);
       c.plane.offset = plane.get<double>();
       plane.expect_end();
-      c.vertices_px = decode_vectors<Eigen::Vector2f>(cells.blob(6), cells.blob_size(6), what + " vertices_px");
-      c.vertices_m = decode_vectors<Eigen::Vector3f>(cells.blob(7), cells.blob_size(7), what + " vertices_m");
-      Reader rgb(cells.blob(8), cells.blob_size(8), what + " colour");
+      c.vertices_m = decode_vectors<Eigen::Vector3f>(cells.blob(4), cells.blob_size(4), what + " vertices_m");
+      Reader rgb(cells.blob(5), cells.blob_size(5), what + " colour");
       rgb.get_matrix(c.mean_rgb);
       rgb.expect_end();
-      Reader hist(cells.blob(9), cells.blob_size(9), what + " histogram");
-      for (float& h : c.histogram) h = hist.get<float>();
-      hist.expect_end();
-      c.area_px = static_cast<std::uint32_t>(cells.integer(10));
-      c.inlier_count = static_cast<std::uint32_t>(cells.integer(11));
-      c.inlier_ratio = static_cast<float>(cells.real(12));
-      c.depth_sigma_m = static_cast<float>(cells.real(13));
+      c.depth_sigma_m = static_cast<float>(cells.real(6));
       out.cells.push_back(std::move(c));
     }
     if (rc != SQLITE_DONE) fail("cannot read cells");

@@ -24,7 +24,7 @@ namespace planecell::io {
 
 /// Everything needed to rebuild a GlobalMap (GlobalMap::restore).
 struct StoredMap {
-  std::vector<Planecell> cells;
+  std::vector<map::MapCell> cells;
   std::vector<map::Surface> surfaces;
   std::uint32_t next_cell_id = 0;
   std::uint32_t next_surface_id = 0;

@@ -24,15 +24,17 @@ void put(std::ofstream& out, T value) {
   out.write(bytes, sizeof(T));
 }
 
-}  // namespace
+bool drawable(const Planecell& cell) { return cell.has_plane; }
+bool drawable(const map::MapCell&) { return true; }
 
-std::size_t write_planecells_ply(const std::filesystem::path& path,
-                                 const std::vector<Planecell>& cells, bool binary) {
+/// The body of write_planecells_ply for either cell type (vertices_m, mean_rgb).
+template <class Cell>
+std::size_t write_fans(const std::filesystem::path& path, const std::vector<Cell>& cells, bool binary) {
   std::vector<ColouredVertex> vertices;
   std::vector<std::array<std::int32_t, 3>> faces;
-  for (const Planecell& cell : cells) {
+  for (const Cell& cell : cells) {
     const std::size_t n = cell.vertices_m.size();
-    if (!cell.has_plane || n < 3) continue;
+    if (!drawable(cell) || n < 3) continue;
     std::array<std::uint8_t, 3> rgb;
     for (int c = 0; c < 3; ++c)
       rgb[c] = static_cast<std::uint8_t>(std::clamp(std::round(cell.mean_rgb[c]), 0.0f, 255.0f));
@@ -76,6 +78,18 @@ std::size_t write_planecells_ply(const std::filesystem::path& path,
   out.flush();
   if (!out) throw StorageError("PLY '" + path.string() + "': write failed (disk full?)");
   return faces.size();
+}
+
+}  // namespace
+
+std::size_t write_planecells_ply(const std::filesystem::path& path,
+                                 const std::vector<Planecell>& cells, bool binary) {
+  return write_fans(path, cells, binary);
+}
+
+std::size_t write_planecells_ply(const std::filesystem::path& path,
+                                 const std::vector<map::MapCell>& cells, bool binary) {
+  return write_fans(path, cells, binary);
 }
 
 }  // namespace planecell::io

@@ -4,6 +4,7 @@
 #include <vector>
 
 #include "core/planecell.hpp"
+#include "mapping/map/map_cell.hpp"
 
 namespace planecell::io {
 
@@ -16,5 +17,8 @@ namespace planecell::io {
 /// the path when the file cannot be written.
 std::size_t write_planecells_ply(const std::filesystem::path& path,
                                  const std::vector<Planecell>& cells, bool binary = true);
+/// The same for the map's cells (all have a plane).
+std::size_t write_planecells_ply(const std::filesystem::path& path,
+                                 const std::vector<map::MapCell>& cells, bool binary = true);
 
 }  // namespace planecell::io

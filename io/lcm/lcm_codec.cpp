@@ -80,13 +80,14 @@ planecell_lcm::pose_t decode_pose(std::span<const std::uint8_t> bytes) {
 
 planecell_lcm::map_update_t decode_map_update(std::span<const std::uint8_t> bytes) {
   constexpr const char* what = "map_update_t";
-  constexpr std::size_t kCellFixedBytes = 361;  // planecell_t without its 20 bytes per vertex
+  constexpr std::size_t kCellFixedBytes = 68;     // planecell_t without its 12 bytes per vertex
+  constexpr std::size_t kVertexCountAt = 64;      // offset of num_vertices in a planecell_t
   std::int32_t cells = 0;
   std::size_t at = check_count(bytes, 48, kCellFixedBytes, what, &cells);
   for (std::int32_t i = 0; i < cells; ++i) {
     std::int32_t vertices = 0;
-    check_count(bytes, at + 73, 20, what, &vertices);
-    at += kCellFixedBytes + 20 * static_cast<std::size_t>(vertices);
+    check_count(bytes, at + kVertexCountAt, 12, what, &vertices);
+    at += kCellFixedBytes + 12 * static_cast<std::size_t>(vertices);
   }
   for (const std::size_t element : {8, 4, 8, 4}) {  // relabels, removals, merges, removed surfaces
     std::int32_t count = 0;
@@ -254,72 +255,46 @@ Pose from_lcm(const planecell_lcm::pose_t& m) {
 
 // --- planecells -------------------------------------------------------------------------------------
 
-planecell_lcm::planecell_t to_lcm(const Planecell& cell) {
+planecell_lcm::planecell_t to_lcm(const map::MapCell& cell) {
   planecell_lcm::planecell_t m;
   m.id = static_cast<std::int32_t>(cell.id);
   m.frame_id = static_cast<std::int64_t>(cell.frame_id);
   m.surface = static_cast<std::int32_t>(cell.surface);
-  m.has_plane = cell.has_plane;
-  m.disparity_plane[0] = cell.disparity_plane.a;
-  m.disparity_plane[1] = cell.disparity_plane.b;
-  m.disparity_plane[2] = cell.disparity_plane.c;
   for (int i = 0; i < 3; ++i) m.normal[i] = cell.plane.normal[i];
   m.offset = cell.plane.offset;
-  if (cell.vertices_px.size() != cell.vertices_m.size())
-    throw InputError("planecell " + std::to_string(cell.id) + ": pixel and 3D polygons differ in length");
-  m.num_vertices = static_cast<std::int32_t>(cell.vertices_m.size());
-  for (std::size_t i = 0; i < cell.vertices_m.size(); ++i) {
-    m.vertices_px.push_back({cell.vertices_px[i].x(), cell.vertices_px[i].y()});
-    m.vertices_m.push_back({cell.vertices_m[i].x(), cell.vertices_m[i].y(), cell.vertices_m[i].z()});
-  }
   for (int i = 0; i < 3; ++i) m.mean_rgb[i] = cell.mean_rgb[i];
-  for (int i = 0; i < kColourHistogramBins; ++i) m.histogram[i] = cell.histogram[static_cast<std::size_t>(i)];
-  m.area_px = static_cast<std::int32_t>(cell.area_px);
-  m.inlier_count = static_cast<std::int32_t>(cell.inlier_count);
-  m.inlier_ratio = cell.inlier_ratio;
   m.depth_sigma_m = cell.depth_sigma_m;
+  m.num_vertices = static_cast<std::int32_t>(cell.vertices_m.size());
+  for (const auto& v : cell.vertices_m) m.vertices_m.push_back({v.x(), v.y(), v.z()});
   return m;
 }
 
-Planecell from_lcm(const planecell_lcm::planecell_t& m) {
+map::MapCell from_lcm(const planecell_lcm::planecell_t& m) {
   const std::string name = "planecell_t " + std::to_string(m.id);
   if (m.num_vertices < 0 || m.num_vertices > kMaxLcmCellVertices)
     throw InputError(name + ": " + std::to_string(m.num_vertices) + " vertices (0.." +
                      std::to_string(kMaxLcmCellVertices) + " accepted)");
   const auto n = static_cast<std::size_t>(m.num_vertices);
-  if (m.vertices_px.size() != n || m.vertices_m.size() != n)
-    throw InputError(name + ": vertex arrays disagree with num_vertices");
-  if (m.area_px < 0 || m.inlier_count < 0 || m.frame_id < 0)
-    throw InputError(name + ": negative area, inlier count or frame id");
-  if (!all_finite(m.disparity_plane) || !all_finite(m.normal) || !finite(m.offset) || !all_finite(m.mean_rgb) ||
-      !all_finite(m.histogram) || !std::isfinite(m.inlier_ratio) ||
+  if (m.vertices_m.size() != n) throw InputError(name + ": vertex array disagrees with num_vertices");
+  if (m.frame_id < 0) throw InputError(name + ": negative frame id");
+  if (!all_finite(m.normal) || !finite(m.offset) || !all_finite(m.mean_rgb) ||
       !std::isfinite(m.depth_sigma_m) || m.depth_sigma_m < 0.0f)
-    throw InputError(name + ": NaN or Inf in the plane, colour or histogram");
-  Planecell cell;
+    throw InputError(name + ": NaN or Inf in the plane, colour or depth noise");
+  map::MapCell cell;
   cell.id = static_cast<std::uint32_t>(m.id);
   cell.frame_id = static_cast<std::uint64_t>(m.frame_id);
   cell.surface = static_cast<std::uint32_t>(m.surface);
-  cell.has_plane = m.has_plane;
-  cell.disparity_plane = {m.disparity_plane[0], m.disparity_plane[1], m.disparity_plane[2]};
   cell.plane.normal = Eigen::Vector3d(m.normal[0], m.normal[1], m.normal[2]);
   cell.plane.offset = m.offset;
-  cell.vertices_px.reserve(n);
   cell.vertices_m.reserve(n);
   for (std::size_t i = 0; i < n; ++i) {
-    const auto& px = m.vertices_px[i];
     const auto& xyz = m.vertices_m[i];
-    if (px.size() != 2 || xyz.size() != 3) throw InputError(name + ": malformed vertex " + std::to_string(i));
-    if (!std::isfinite(px[0]) || !std::isfinite(px[1]) || !std::isfinite(xyz[0]) || !std::isfinite(xyz[1]) ||
-        !std::isfinite(xyz[2]))
+    if (xyz.size() != 3) throw InputError(name + ": malformed vertex " + std::to_string(i));
+    if (!std::isfinite(xyz[0]) || !std::isfinite(xyz[1]) || !std::isfinite(xyz[2]))
       throw InputError(name + ": vertex " + std::to_string(i) + " is NaN or Inf");
-    cell.vertices_px.emplace_back(px[0], px[1]);
     cell.vertices_m.emplace_back(xyz[0], xyz[1], xyz[2]);
   }
   cell.mean_rgb = Eigen::Vector3f(m.mean_rgb[0], m.mean_rgb[1], m.mean_rgb[2]);
-  for (int i = 0; i < kColourHistogramBins; ++i) cell.histogram[static_cast<std::size_t>(i)] = m.histogram[i];
-  cell.area_px = static_cast<std::uint32_t>(m.area_px);
-  cell.inlier_count = static_cast<std::uint32_t>(m.inlier_count);
-  cell.inlier_ratio = m.inlier_ratio;
   cell.depth_sigma_m = m.depth_sigma_m;
   return cell;
 }
@@ -455,7 +430,7 @@ void MapMirror::apply(const MapUpdate& update) {
   for (const auto& relabel : update.relabelled_cells) {
     const std::uint32_t id = relabel.first;  // a named copy: clang 14 cannot capture a binding
     if (!cells.contains(id) && std::none_of(update.added_cells.begin(), update.added_cells.end(),
-                                            [id](const Planecell& c) { return c.id == id; }))
+                                            [id](const map::MapCell& c) { return c.id == id; }))
       throw InputError("map update of frame " + std::to_string(update.frame_id) + ": relabels unknown cell " +
                        std::to_string(id));
   }

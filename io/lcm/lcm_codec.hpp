@@ -45,10 +45,10 @@ planecell_lcm::pose_t to_lcm(std::uint64_t frame_id, const Pose& T_world_cam, st
 /// is not orthonormal (validate_pose).
 Pose from_lcm(const planecell_lcm::pose_t& message);
 
-planecell_lcm::planecell_t to_lcm(const Planecell& cell);
-/// Exact inverse of to_lcm(Planecell). Throws InputError on inconsistent vertex counts, more than
-/// kMaxLcmCellVertices vertices, negative counts or NaN/Inf values.
-Planecell from_lcm(const planecell_lcm::planecell_t& message);
+planecell_lcm::planecell_t to_lcm(const map::MapCell& cell);
+/// Exact inverse of to_lcm(MapCell). Throws InputError on inconsistent vertex counts, more than
+/// kMaxLcmCellVertices vertices, a negative frame id or NaN/Inf values.
+map::MapCell from_lcm(const planecell_lcm::planecell_t& message);
 
 /// Splits an update into messages that each encode to at most max_bytes (chunk_index/count set;
 /// every list is spread greedily over the chunks in order). Throws InputError when a single cell

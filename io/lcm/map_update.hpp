@@ -13,7 +13,7 @@ namespace planecell::io {
 
 struct MapUpdate {
   std::uint64_t frame_id = 0;
-  std::vector<Planecell> added_cells;  ///< new stored cells, world frame, with their surface
+  std::vector<map::MapCell> added_cells;  ///< new stored cells, world frame, with their surface
   std::vector<std::pair<std::uint32_t, std::uint32_t>> relabelled_cells;  ///< (cell id, surface)
   std::vector<std::uint32_t> removed_cells;
   std::vector<map::SurfaceMerge> surface_merges;
@@ -26,7 +26,7 @@ struct MapUpdate {
 
 /// The cells of a map rebuilt from updates only: id → cell (world frame, surface label).
 struct MapMirror {
-  std::unordered_map<std::uint32_t, Planecell> cells;
+  std::unordered_map<std::uint32_t, map::MapCell> cells;
   std::uint32_t next_cell_id = 0;
   std::uint32_t next_surface_id = 0;
   std::uint64_t frames = 0;  ///< updates applied

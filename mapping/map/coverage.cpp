@@ -8,7 +8,7 @@
 
 namespace planecell::map {
 
-bool nearly_coplanar(const Planecell& cell, const Planecell& old, double max_angle_deg,
+bool nearly_coplanar(const Planecell& cell, const MapCell& old, double max_angle_deg,
                      double max_distance_m) {
   if (old.vertices_m.empty()) return false;
   const double cos_angle = std::abs(cell.plane.normal.dot(old.plane.normal));
@@ -21,15 +21,16 @@ bool nearly_coplanar(const Planecell& cell, const Planecell& old, double max_ang
   return sum_sq <= max_distance_m * max_distance_m * static_cast<double>(old.vertices_m.size());
 }
 
-double covered_fraction(const Planecell& cell, const CoverageTest& covered, int samples) {
-  if (cell.vertices_m.size() < 3 || samples < 1) return 0.0;
-  const PlaneBasis basis = make_basis(cell.plane, vertex_centroid(cell.vertices_m));
-  const auto ring = project_to_basis(cell.vertices_m, basis);
+double covered_fraction(const Plane3& plane, std::span<const Eigen::Vector3f> vertices,
+                        const CoverageTest& covered, int samples) {
+  if (vertices.size() < 3 || samples < 1) return 0.0;
+  const PlaneBasis basis = make_basis(plane, vertex_centroid(vertices));
+  const auto ring = project_to_basis(vertices, basis);
   Eigen::Vector2d lo = ring.front(), hi = ring.front();
   for (const auto& p : ring) lo = lo.cwiseMin(p), hi = hi.cwiseMax(p);
   // A square grid of about `samples` points over the cell's bounding box (centres of its squares).
   const Eigen::Vector2d size = hi - lo;
-  const double area = polygon_area_m2(cell.vertices_m);
+  const double area = polygon_area_m2(vertices);
   if (!(area > 0.0) || !std::isfinite(area)) return 0.0;
   const double step = std::max(std::sqrt(size.x() * size.y() / samples), 1e-6);
   const int nx = std::clamp(static_cast<int>(std::ceil(size.x() / step)), 1, 4 * samples);
@@ -45,25 +46,26 @@ double covered_fraction(const Planecell& cell, const CoverageTest& covered, int 
   return own > 0 ? static_cast<double>(hits) / own : 0.0;
 }
 
-double covered_fraction(const Planecell& cell, std::span<const Planecell* const> covering,
-                        int samples) {
-  if (covering.empty() || cell.vertices_m.size() < 3) return 0.0;
-  const PlaneBasis basis = make_basis(cell.plane, vertex_centroid(cell.vertices_m));
-  const auto ring = project_to_basis(cell.vertices_m, basis);
+double covered_fraction(const Plane3& plane, std::span<const Eigen::Vector3f> vertices,
+                        std::span<const std::span<const Eigen::Vector3f>> covering, int samples) {
+  if (covering.empty() || vertices.size() < 3) return 0.0;
+  const PlaneBasis basis = make_basis(plane, vertex_centroid(vertices));
+  const auto ring = project_to_basis(vertices, basis);
   Eigen::Vector2d lo = ring.front(), hi = ring.front();
   for (const auto& p : ring) lo = lo.cwiseMin(p), hi = hi.cwiseMax(p);
   std::vector<std::vector<Eigen::Vector2d>> rings;
   rings.reserve(covering.size());
-  for (const Planecell* old : covering) {
-    auto r = project_to_basis(old->vertices_m, basis);
+  for (const auto polygon : covering) {
+    if (polygon.size() < 3) continue;
+    auto r = project_to_basis(polygon, basis);
     Eigen::Vector2d olo = r.front(), ohi = r.front();
     for (const auto& p : r) olo = olo.cwiseMin(p), ohi = ohi.cwiseMax(p);
-    if (r.size() >= 3 && (olo.array() <= hi.array()).all() && (ohi.array() >= lo.array()).all())
+    if ((olo.array() <= hi.array()).all() && (ohi.array() >= lo.array()).all())
       rings.push_back(std::move(r));
   }
   if (rings.empty()) return 0.0;
   return covered_fraction(
-      cell,
+      plane, vertices,
       [&](const Eigen::Vector2d& st, const PlaneBasis&) {
         return std::any_of(rings.begin(), rings.end(),
                            [&](const auto& r) { return point_in_ring(r, st); });

@@ -4,31 +4,45 @@
 /// new space to the map, so the map grows with the area explored, not with the number of frames.
 #include <functional>
 #include <span>
+#include <vector>
 
 #include "core/planecell.hpp"
 #include "mapping/map/geometry.hpp"
+#include "mapping/map/map_cell.hpp"
 
 namespace planecell::map {
 
 /// Stored cell `old` may cover `cell` when their normals are within `max_angle_deg` and the RMS
 /// distance of old's vertices to cell's plane, √(Σ (n·v + e)² / K), is within `max_distance_m`.
-bool nearly_coplanar(const Planecell& cell, const Planecell& old, double max_angle_deg,
+bool nearly_coplanar(const Planecell& cell, const MapCell& old, double max_angle_deg,
                      double max_distance_m);
-
-/// Share of `cell`'s polygon covered by the `covering` polygons, all projected orthogonally onto
-/// cell's plane, estimated on a grid of about `samples` points over cell's bounding box:
-///   covered ≈ |{grid points in cell and in some covering polygon}| / |{grid points in cell}| ∈ [0, 1];
-/// 0 when no grid point falls inside the cell. The cost is O(samples · Σ vertices) whatever the
-/// polygons' sizes in metres.
-double covered_fraction(const Planecell& cell, std::span<const Planecell* const> covering,
-                        int samples = 64);
 
 /// Whether the grid point `st` of a cell's polygon (in the cell's own plane basis: 3D point
 /// basis.to_3d(st)) is covered by something the map holds.
 using CoverageTest = std::function<bool(const Eigen::Vector2d& st, const PlaneBasis& basis)>;
 
-/// The same grid estimate with any coverage test: |{grid points in cell with covered(st)}| /
-/// |{grid points in cell}|; 0 when no grid point falls inside the cell.
-double covered_fraction(const Planecell& cell, const CoverageTest& covered, int samples = 64);
+/// Share of the polygon `vertices` (on `plane`) passing `covered`, estimated on a grid of about
+/// `samples` points over the polygon's bounding box in its plane:
+///   covered ≈ |{grid points in the polygon with covered(st)}| / |{grid points in the polygon}|,
+/// 0 when no grid point falls inside it.
+double covered_fraction(const Plane3& plane, std::span<const Eigen::Vector3f> vertices,
+                        const CoverageTest& covered, int samples = 64);
+
+/// The same estimate with "inside one of the `covering` polygons, all projected orthogonally onto
+/// `plane`" as the test ∈ [0, 1]. The cost is O(samples · Σ vertices) whatever the polygons' sizes
+/// in metres.
+double covered_fraction(const Plane3& plane, std::span<const Eigen::Vector3f> vertices,
+                        std::span<const std::span<const Eigen::Vector3f>> covering, int samples = 64);
+
+/// covered_fraction of `cell` by the `covering` cells (any cells with plane and vertices_m:
+/// Planecell, MapCell).
+template <class Cell, class Covering>
+double covered_fraction(const Cell& cell, const std::vector<const Covering*>& covering,
+                        int samples = 64) {
+  std::vector<std::span<const Eigen::Vector3f>> polygons;
+  polygons.reserve(covering.size());
+  for (const Covering* c : covering) polygons.emplace_back(c->vertices_m);
+  return covered_fraction(cell.plane, cell.vertices_m, polygons, samples);
+}
 
 }  // namespace planecell::map

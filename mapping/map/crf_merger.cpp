@@ -193,8 +193,8 @@ EdgeEvaluation CrfMerger::evaluate(const MergeUnit& a, const LabelState& label_a
                                    const MergeUnit& b, const LabelState& label_b,
                                    double boundary_m) const {
   EdgeEvaluation ev;
-  const auto& va = a.cell->vertices_m;
-  const auto& vb = b.cell->vertices_m;
+  const auto va = a.vertices;
+  const auto vb = b.vertices;
   const double cos_angle = std::min(1.0, std::abs(label_a.plane.normal.dot(label_b.plane.normal)));
   ev.angle_deg = std::acos(cos_angle) * 180.0 / std::numbers::pi;
   // Variation range, asymmetric: the less-informed label (lo) on the better-informed one's plane.
@@ -230,14 +230,14 @@ EdgeEvaluation CrfMerger::evaluate(const MergeUnit& a, const LabelState& label_a
   ev.in_range = in_range && ev.colour_similarity >= config_.min_colour_similarity;
   // Energy gained (the greedy's visiting order): δ + φ + ψ of the edge's two cells.
   const double sigma = config_.residual_scale_m;
-  const double delta_a = colour_similarity(a.cell->histogram, label_b.histogram);
-  const double delta_b = colour_similarity(b.cell->histogram, label_a.histogram);
-  const double phi = pose_potential(a.area_m2, b.area_m2, plane_residual(a.cell->plane, vb, sigma),
-                                    plane_residual(b.cell->plane, va, sigma));
+  const double delta_a = colour_similarity(a.histogram ? *a.histogram : label_a.histogram, label_b.histogram);
+  const double delta_b = colour_similarity(b.histogram ? *b.histogram : label_b.histogram, label_a.histogram);
+  const double phi = pose_potential(a.area_m2, b.area_m2, plane_residual(*a.plane, vb, sigma),
+                                    plane_residual(*b.plane, va, sigma));
   const Eigen::Vector3d m = boundary_point(va, vb);
-  const double s = a.cell->plane.normal.dot(b.cell->plane.normal) < 0.0 ? -1.0 : 1.0;
+  const double s = a.plane->normal.dot(b.plane->normal) < 0.0 ? -1.0 : 1.0;
   const double theta_c =
-      std::abs(a.cell->plane.signed_distance(m) - s * b.cell->plane.signed_distance(m)) / sigma;
+      std::abs(a.plane->signed_distance(m) - s * b.plane->signed_distance(m)) / sigma;
   ev.gain = delta_a + delta_b + phi + boundary_potential(boundary_m, theta_c);
   return ev;
 }

@@ -91,10 +91,14 @@ struct LabelState {
   double sigma_m() const;
 };
 
-/// A planecell taking part in a merge, with its current label.
+/// A planecell taking part in a merge (world frame), with its current label.
 struct MergeUnit {
   std::uint32_t label = 0;
-  const Planecell* cell = nullptr;  ///< world frame
+  const Plane3* plane = nullptr;
+  std::span<const Eigen::Vector3f> vertices;
+  /// The cell's own colour histogram (a new cell); nullptr for a stored cell, whose colour evidence
+  /// is its label's (the map keeps colour per surface, not per cell).
+  const ColourHistogram* histogram = nullptr;
   double area_m2 = 0.0;
 };
 

@@ -17,22 +17,21 @@ namespace {
 /// the index visits (extent / bucket)³ buckets per cell, so a corrupt polygon must not reach it.
 constexpr double kMaxCellExtentM = 200.0;
 
-/// Why `cell` cannot enter the map, or "" when it can: it needs a finite plane and ≥ 3 finite
-/// vertices of non-zero area, inside the index's cube (±`max_coordinate_m`) and at most
+/// Why a polygon on `plane` cannot enter the map, or "" when it can: it needs a finite plane and
+/// ≥ 3 finite vertices of non-zero area, inside the index's cube (±`max_coordinate_m`) and at most
 /// kMaxCellExtentM across.
-std::string cell_problem(const Planecell& cell, double max_coordinate_m) {
-  if (!cell.has_plane) return "has no plane";
-  if (cell.vertices_m.size() < 3) return "has fewer than 3 vertices";
-  if (!cell.plane.normal.allFinite() || !std::isfinite(cell.plane.offset))
-    return "has a non-finite plane";
-  for (const auto& v : cell.vertices_m)
+std::string cell_problem(const Plane3& plane, std::span<const Eigen::Vector3f> vertices,
+                         double max_coordinate_m) {
+  if (vertices.size() < 3) return "has fewer than 3 vertices";
+  if (!plane.normal.allFinite() || !std::isfinite(plane.offset)) return "has a non-finite plane";
+  for (const auto& v : vertices)
     if (!v.allFinite()) return "has a non-finite vertex";
-  const Aabb box = bounds_of(cell.vertices_m);
+  const Aabb box = bounds_of(vertices);
   if (box.min.minCoeff() < -max_coordinate_m || box.max.maxCoeff() > max_coordinate_m)
     return "has a vertex beyond ±" + std::to_string(max_coordinate_m) + " m";
   if ((box.max - box.min).maxCoeff() > kMaxCellExtentM)
     return "spans more than " + std::to_string(kMaxCellExtentM) + " m";
-  if (!(polygon_area_m2(cell.vertices_m) > 1e-9)) return "has zero area";
+  if (!(polygon_area_m2(vertices) > 1e-9)) return "has zero area";
   return {};
 }
 
@@ -52,17 +51,6 @@ template <class Map>
 std::size_t hash_map_bytes(const Map& m) {
   return m.bucket_count() * sizeof(void*) +
          m.size() * (sizeof(typename Map::value_type) + sizeof(void*));
-}
-
-bool cells_equal(const Planecell& a, const Planecell& b) {
-  return a.id == b.id && a.frame_id == b.frame_id && a.has_plane == b.has_plane &&
-         a.disparity_plane.a == b.disparity_plane.a && a.disparity_plane.b == b.disparity_plane.b &&
-         a.disparity_plane.c == b.disparity_plane.c && a.plane.normal == b.plane.normal &&
-         a.plane.offset == b.plane.offset && a.vertices_px == b.vertices_px &&
-         a.vertices_m == b.vertices_m && a.mean_rgb == b.mean_rgb && a.histogram == b.histogram &&
-         a.area_px == b.area_px && a.inlier_count == b.inlier_count &&
-         a.inlier_ratio == b.inlier_ratio && a.depth_sigma_m == b.depth_sigma_m &&
-         a.surface == b.surface;
 }
 
 bool surfaces_equal(const Surface& a, const Surface& b) {
@@ -107,15 +95,15 @@ struct Coverage {
 /// Share of `cell` lying in a covering stored cell's polygon (projected onto cell's plane) or in a
 /// covering surface's footprint (cell's points projected orthogonally onto the surface's basis),
 /// and the surface that covers most grid points (a stored cell counts for its surface).
-Coverage coverage_of(const Planecell& cell, std::span<const Planecell* const> cells,
+Coverage coverage_of(const Planecell& cell, std::span<const MapCell* const> cells,
                      std::span<const Surface* const> surfaces) {
   const PlaneBasis own = make_basis(cell.plane, vertex_centroid(cell.vertices_m));
   std::vector<std::vector<Eigen::Vector2d>> rings;
   rings.reserve(cells.size());
-  for (const Planecell* old : cells) rings.push_back(project_to_basis(old->vertices_m, own));
+  for (const MapCell* old : cells) rings.push_back(project_to_basis(old->vertices_m, own));
   std::map<std::uint32_t, int> hits;  // by surface id: ties go to the oldest surface
   Coverage c;
-  c.fraction = covered_fraction(cell, [&](const Eigen::Vector2d& st, const PlaneBasis& basis) {
+  c.fraction = covered_fraction(cell.plane, cell.vertices_m, [&](const Eigen::Vector2d& st, const PlaneBasis& basis) {
     bool any = false;
     for (std::size_t i = 0; i < cells.size(); ++i)
       if (rings[i].size() >= 3 && point_in_ring(rings[i], st)) {
@@ -198,7 +186,7 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
   std::unordered_map<std::uint32_t, std::uint32_t> unit_of_extraction_id;
   for (std::size_t i = 0; i < cells_world.size(); ++i) {
     const Planecell& cell = cells_world[i];
-    if (!cell_problem(cell, index_.max_coordinate_m()).empty() ||
+    if (!cell.has_plane || !cell_problem(cell.plane, cell.vertices_m, index_.max_coordinate_m()).empty() ||
         (vertex_centroid(cell.vertices_m) - camera_centre).norm() > config_.max_range_m ||
         (config_.max_depth_sigma_m > 0.0 && cell.depth_sigma_m > config_.max_depth_sigma_m)) {
       ++report.rejected_cells;
@@ -216,7 +204,7 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
   std::unordered_map<std::uint32_t, LabelState> labels;
   for (std::size_t k = 0; k < fresh.size(); ++k) {
     const auto label = next_surface_id_ + static_cast<std::uint32_t>(k);
-    units.push_back({label, fresh[k], fresh_area[k]});
+    units.push_back({label, &fresh[k]->plane, fresh[k]->vertices_m, &fresh[k]->histogram, fresh_area[k]});
     labels.emplace(label, state_of_cell(*fresh[k], fresh_area[k], config_.residual_scale_m));
   }
 
@@ -251,8 +239,8 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
   // Stored cells near each new cell, in one index query: neighbour edges (within the gap) and
   // the cells and surfaces that may cover it (re-observation by coverage, step 5; tol ≥ gap).
   std::unordered_map<std::uint32_t, std::uint32_t> unit_of_map_cell;
-  std::vector<std::vector<const Planecell*>> covering(fresh.size());  ///< stored, nearly coplanar
-  std::vector<std::vector<const Planecell*>> superseded(fresh.size());  ///< ... and much less precise
+  std::vector<std::vector<const MapCell*>> covering(fresh.size());  ///< stored, nearly coplanar
+  std::vector<std::vector<const MapCell*>> superseded(fresh.size());  ///< ... and much less precise
   std::vector<std::vector<std::uint32_t>> covering_surfaces(fresh.size());  ///< nearly coplanar
   const bool coverage_rule = config_.redundant_coverage <= 1.0;
   const double reach = coverage_rule ? std::max(gap, config_.redundant_max_distance_m) : gap;
@@ -261,13 +249,13 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
     const Aabb box = bounds_of(cell.vertices_m);
     const Aabb near_box = box.inflated(gap);
     for (std::uint32_t id : index_.query(box.inflated(reach))) {
-      const Planecell& old = cells_.at(id);
+      const MapCell& old = cells_.at(id);
       const bool neighbour = near_box.overlaps(bounds_of(old.vertices_m)) &&
                              polygons_within_m(cell.plane, cell.vertices_m, old.plane, old.vertices_m, gap);
       if (neighbour) {
         auto [it, inserted] = unit_of_map_cell.try_emplace(id, static_cast<std::uint32_t>(units.size()));
         if (inserted) {
-          units.push_back({old.surface, &old, polygon_area_m2(old.vertices_m)});
+          units.push_back({old.surface, &old.plane, old.vertices_m, nullptr, polygon_area_m2(old.vertices_m)});
           if (!labels.contains(old.surface)) labels.emplace(old.surface, state_of_surface(surfaces_.at(old.surface)));
         }
         edges.push_back({static_cast<std::uint32_t>(k), it->second,
@@ -327,7 +315,7 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
   // 5. New cells: create surfaces for fresh roots, fuse or store each cell.
   /// Stored cell id → (that cell, the new stored cells superseding it); by id, so replacement is
   /// deterministic.
-  std::map<std::uint32_t, std::pair<const Planecell*, std::vector<const Planecell*>>> superseding;
+  std::map<std::uint32_t, std::pair<const MapCell*, std::vector<const Planecell*>>> superseding;
   for (std::size_t k = 0; k < fresh.size(); ++k) {
     const Planecell& cell = *fresh[k];
     const std::uint32_t root = union_find.find(units[k].label);
@@ -386,15 +374,12 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
       continue;
     }
     // Stored cells that nearer, more precise new cells cover are replaced by them (below).
-    for (const Planecell* old : superseded[k]) {
+    for (const MapCell* old : superseded[k]) {
       auto& entry = superseding[old->id];
       entry.first = old;
       entry.second.push_back(fresh[k]);
     }
-    Planecell stored = cell;
-    stored.id = next_cell_id_++;
-    stored.frame_id = frame_id;
-    stored.surface = root;
+    MapCell stored = map_cell_of(cell, next_cell_id_++, frame_id, root);
     index_.insert(stored.id, bounds_of(stored.vertices_m));
     surface.cells.push_back(stored.id);
     report.added_cells.push_back(stored.id);
@@ -444,8 +429,7 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
 std::size_t GlobalMap::map_bytes() const {
   std::size_t total = hash_map_bytes(cells_) + hash_map_bytes(surfaces_) + index_.bytes();
   for (const auto& [id, cell] : cells_)
-    total += cell.vertices_px.capacity() * sizeof(Eigen::Vector2f) +
-             cell.vertices_m.capacity() * sizeof(Eigen::Vector3f);
+    total += cell.vertices_m.capacity() * sizeof(Eigen::Vector3f);
   for (const auto& [id, surface] : surfaces_) {
     total += surface.cells.capacity() * sizeof(std::uint32_t);
     total += surface.footprint.bytes();
@@ -453,7 +437,7 @@ std::size_t GlobalMap::map_bytes() const {
   return total;
 }
 
-GlobalMap GlobalMap::restore(const MapConfig& config, std::vector<Planecell> cells,
+GlobalMap GlobalMap::restore(const MapConfig& config, std::vector<MapCell> cells,
                              std::vector<Surface> surfaces, std::uint32_t next_cell_id,
                              std::uint32_t next_surface_id) {
   GlobalMap map(config);
@@ -462,7 +446,7 @@ GlobalMap GlobalMap::restore(const MapConfig& config, std::vector<Planecell> cel
     map.surfaces_.emplace(id, std::move(surface));
   }
   for (auto& cell : cells) {
-    if (const std::string problem = cell_problem(cell, map.index_.max_coordinate_m());
+    if (const std::string problem = cell_problem(cell.plane, cell.vertices_m, map.index_.max_coordinate_m());
         !problem.empty())
       throw StorageError("map restore: cell " + std::to_string(cell.id) + " " + problem);
     if (!map.surfaces_.contains(cell.surface))
@@ -482,8 +466,8 @@ bool GlobalMap::same_content(const GlobalMap& other) const {
       cells_.size() != other.cells_.size() || surfaces_.size() != other.surfaces_.size())
     return false;
   for (const auto& [id, cell] : cells_) {
-    const Planecell* o = other.cell(id);
-    if (!o || !cells_equal(cell, *o)) return false;
+    const MapCell* o = other.cell(id);
+    if (!o || !(cell == *o)) return false;
   }
   for (const auto& [id, surface] : surfaces_) {
     const Surface* o = other.surface(id);

@@ -15,6 +15,7 @@
 #include "mapping/map/crf_merger.hpp"
 #include "mapping/map/footprint.hpp"
 #include "mapping/map/geometry.hpp"
+#include "mapping/map/map_cell.hpp"
 #include "mapping/map/spatial_index.hpp"
 
 namespace planecell::map {
@@ -97,16 +98,17 @@ class GlobalMap {
   /// gives the same-frame neighbours; when empty, same-frame neighbours are found in 3D. Earlier
   /// cells near the new ones come from the spatial index. Runs the CRF merger, then fuses every
   /// new cell into its surface's footprint: a cell adding less than fuse_new_area_fraction of its
-  /// own area is not stored. Throws InputError on a bad pose.
+  /// own area is not stored. A stored cell keeps its map fields only (MapCell); its colour
+  /// histogram is folded into its surface's. Throws InputError on a bad pose.
   MergeReport integrate(std::uint64_t frame_id, const Pose& T_world_cam,
                         std::span<const Planecell> cells_world,
                         std::span<const LabelEdge> image_adjacency = {});
 
-  const std::unordered_map<std::uint32_t, Planecell>& cells() const { return cells_; }
+  const std::unordered_map<std::uint32_t, MapCell>& cells() const { return cells_; }
   const std::unordered_map<std::uint32_t, Surface>& surfaces() const { return surfaces_; }
   /// The stored cell / surface with this id, nullptr when absent (inline: io::MapStore uses them
   /// without linking planecell_mapping).
-  const Planecell* cell(std::uint32_t id) const {
+  const MapCell* cell(std::uint32_t id) const {
     auto it = cells_.find(id);
     return it == cells_.end() ? nullptr : &it->second;
   }
@@ -142,7 +144,7 @@ class GlobalMap {
 
   /// Rebuilds a map from stored cells and surfaces (io::MapStore). Throws StorageError when a
   /// cell names a missing surface.
-  static GlobalMap restore(const MapConfig& config, std::vector<Planecell> cells,
+  static GlobalMap restore(const MapConfig& config, std::vector<MapCell> cells,
                            std::vector<Surface> surfaces, std::uint32_t next_cell_id,
                            std::uint32_t next_surface_id);
 
@@ -160,7 +162,7 @@ class GlobalMap {
   Eigen::Vector3d up_;
   CrfMerger merger_;
   SpatialIndex index_;
-  std::unordered_map<std::uint32_t, Planecell> cells_;
+  std::unordered_map<std::uint32_t, MapCell> cells_;
   std::unordered_map<std::uint32_t, Surface> surfaces_;
   std::uint32_t next_cell_id_ = 0;
   std::uint32_t next_surface_id_ = 0;

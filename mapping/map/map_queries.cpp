@@ -32,7 +32,7 @@ std::optional<CellDistance> GlobalMap::nearest_cell(const Eigen::Vector3d& point
     box.extend(point);
     std::optional<CellDistance> best;
     for (std::uint32_t id : index_.query(box.inflated(radius))) {
-      const Planecell& c = cells_.at(id);
+      const MapCell& c = cells_.at(id);
       const double d = distance_to_polygon(point, c.plane, c.vertices_m);
       if (d <= max_distance_m && (!best || d < best->distance_m)) best = CellDistance{id, d};
     }
@@ -102,7 +102,7 @@ HeightMap GlobalMap::height_map(const Eigen::Vector2d& origin_ab, int cols, int 
     if (std::isnan(cell) || height > cell) cell = static_cast<float>(height);
   };
   for (std::uint32_t id : index_.query(region)) {
-    const Planecell& c = cells_.at(id);
+    const MapCell& c = cells_.at(id);
     // The polygon in grid coordinates (a, b), and its extent in grid squares.
     Polygon2 poly;
     double a_lo = std::numeric_limits<double>::infinity(), a_hi = -a_lo, b_lo = a_lo, b_hi = -a_lo;

@@ -66,7 +66,7 @@ struct Layout {
   int plot_w = 0, plot_h = 0;
 };
 
-Layout make_layout(std::span<const Planecell> cells, const TopViewOptions& options) {
+Layout make_layout(std::span<const map::MapCell> cells, const TopViewOptions& options) {
   if (!(options.up.norm() > 0.0)) throw ConfigError("top view: the up vector is zero");
   Layout l;
   l.up = options.up.normalized();
@@ -76,7 +76,7 @@ Layout make_layout(std::span<const Planecell> cells, const TopViewOptions& optio
   l.a.normalize();
   l.b = l.up.cross(l.a);
   l.drawn.reserve(cells.size());
-  for (const Planecell& cell : cells) {
+  for (const map::MapCell& cell : cells) {
     if (cell.vertices_m.empty()) continue;
     DrawnCell d;
     d.surface = cell.surface;
@@ -125,11 +125,11 @@ PlotArea layout_area(const Layout& l) {
 
 }  // namespace
 
-PlotArea top_view_area(std::span<const Planecell> cells, const TopViewOptions& options) {
+PlotArea top_view_area(std::span<const map::MapCell> cells, const TopViewOptions& options) {
   return layout_area(make_layout(cells, options));
 }
 
-cv::Mat render_top_view(std::span<const Planecell> cells, const TopViewOptions& options) {
+cv::Mat render_top_view(std::span<const map::MapCell> cells, const TopViewOptions& options) {
   const Layout layout = make_layout(cells, options);
   const PlotArea area = layout_area(layout);
   const bool height = options.colour == TopViewColour::kHeight;

@@ -6,7 +6,7 @@
 #include <span>
 #include <string>
 
-#include "core/planecell.hpp"
+#include "mapping/map/map_cell.hpp"
 #include "services/bench/plot.hpp"
 
 namespace planecell::services::bench {
@@ -31,10 +31,10 @@ struct TopViewOptions {
 /// colours run over the 2nd–98th percentile of the cells' mean heights (TURBO map, colour bar).
 /// Cells without vertices are skipped. Throws InputError when no cell has a vertex, ConfigError
 /// on a zero up vector.
-cv::Mat render_top_view(std::span<const Planecell> cells, const TopViewOptions& options);
+cv::Mat render_top_view(std::span<const map::MapCell> cells, const TopViewOptions& options);
 
 /// The plot area render_top_view draws `cells` into: x axis = a (m), y axis = b (m), equal
 /// scale. A world point X lands at area.to_pixel(a·X, b·X). Same errors as render_top_view.
-PlotArea top_view_area(std::span<const Planecell> cells, const TopViewOptions& options);
+PlotArea top_view_area(std::span<const map::MapCell> cells, const TopViewOptions& options);
 
 }  // namespace planecell::services::bench

@@ -251,7 +251,7 @@ BenchReport run_bench(const BenchOptions& options, const AppConfig& config) {
   {
     const io::MapStore store(store_path);
     const map::GlobalMap global_map = io::load_map(store, config.map);
-    std::vector<Planecell> cells;
+    std::vector<map::MapCell> cells;
     cells.reserve(global_map.cells().size());
     for (const auto& [id, cell] : global_map.cells()) cells.push_back(cell);
     std::sort(cells.begin(), cells.end(), [](const auto& a, const auto& b) { return a.id < b.id; });

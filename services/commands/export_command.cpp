@@ -42,7 +42,7 @@ void add_export_command(CLI::App& app, CommandContext& context) {
     const AppConfig config = ctx.load_app_config();
     const io::MapStore store(args->map);
     const map::GlobalMap global_map = io::load_map(store, config.map);
-    std::vector<Planecell> cells;
+    std::vector<map::MapCell> cells;
     cells.reserve(global_map.cells().size());
     for (const auto& [id, cell] : global_map.cells()) cells.push_back(cell);
     std::sort(cells.begin(), cells.end(), [](const auto& a, const auto& b) { return a.id < b.id; });

@@ -10,12 +10,12 @@
 namespace planecell::services {
 
 map::GlobalMap mirror_to_map(const io::MapMirror& mirror, const MapConfig& config) {
-  std::map<std::uint32_t, std::vector<const Planecell*>> by_surface;
+  std::map<std::uint32_t, std::vector<const map::MapCell*>> by_surface;
   for (const auto& [id, cell] : mirror.cells) by_surface[cell.surface].push_back(&cell);
   std::vector<map::Surface> surfaces;
   for (auto& [label, cells] : by_surface) {
-    std::sort(cells.begin(), cells.end(), [](const Planecell* a, const Planecell* b) { return a->id < b->id; });
-    const Planecell* largest = *std::max_element(cells.begin(), cells.end(), [](const Planecell* a, const Planecell* b) {
+    std::sort(cells.begin(), cells.end(), [](const map::MapCell* a, const map::MapCell* b) { return a->id < b->id; });
+    const map::MapCell* largest = *std::max_element(cells.begin(), cells.end(), [](const map::MapCell* a, const map::MapCell* b) {
       return map::polygon_area_m2(a->vertices_m) < map::polygon_area_m2(b->vertices_m);
     });
     map::Surface surface;
@@ -23,7 +23,7 @@ map::GlobalMap mirror_to_map(const io::MapMirror& mirror, const MapConfig& confi
     surface.plane = largest->plane;
     surface.basis = map::make_basis(surface.plane, map::vertex_centroid(largest->vertices_m));
     surface.footprint = map::Footprint(config.footprint_resolution_m);
-    for (const Planecell* cell : cells) {
+    for (const map::MapCell* cell : cells) {
       const double area = map::polygon_area_m2(cell->vertices_m);
       surface.footprint.add_polygon(map::project_to_basis(cell->vertices_m, surface.basis));
       surface.bounds.extend(map::bounds_of(cell->vertices_m));
@@ -36,7 +36,7 @@ map::GlobalMap mirror_to_map(const io::MapMirror& mirror, const MapConfig& confi
     surface.area_m2 = surface.footprint.area_m2();
     surfaces.push_back(std::move(surface));
   }
-  std::vector<Planecell> cells;
+  std::vector<map::MapCell> cells;
   cells.reserve(mirror.cells.size());
   for (const auto& [id, cell] : mirror.cells) cells.push_back(cell);
   return map::GlobalMap::restore(config, std::move(cells), std::move(surfaces), mirror.next_cell_id,

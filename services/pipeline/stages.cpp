@@ -68,10 +68,10 @@ MapDelta make_delta(const map::MergeReport& report, const map::GlobalMap& map) {
   delta.frame_id = report.frame_id;
   delta.added_cells.reserve(report.added_cells.size());
   for (const auto id : report.added_cells)
-    if (const Planecell* cell = map.cell(id)) delta.added_cells.push_back(*cell);
+    if (const map::MapCell* cell = map.cell(id)) delta.added_cells.push_back(*cell);
   delta.relabelled_cells.reserve(report.relabelled_cells.size());
   for (const auto id : report.relabelled_cells)
-    if (const Planecell* cell = map.cell(id)) delta.relabelled_cells.emplace_back(id, cell->surface);
+    if (const map::MapCell* cell = map.cell(id)) delta.relabelled_cells.emplace_back(id, cell->surface);
   delta.removed_cells = report.removed_cells;
   delta.surface_merges = report.surface_merges;
   delta.removed_surfaces = report.removed_surfaces;

@@ -16,10 +16,9 @@ planecell::io::MapMirror base_mirror() {
   using namespace planecell;
   io::MapMirror mirror;
   for (std::uint32_t id = 0; id < 2; ++id) {
-    Planecell c;
+    map::MapCell c;
     c.id = id;
     c.surface = id;
-    c.has_plane = true;
     c.plane.normal = Eigen::Vector3d(0, -1, 0);
     c.plane.offset = 1.5;
     const float x0 = static_cast<float>(id);

@@ -80,9 +80,7 @@ void write_lcm_seeds(const fs::path& dir) {
   io::MapUpdate update;
   update.frame_id = 4;
   const Eigen::Vector3f x(1, 0, 0), z(0, 0, 1);
-  Planecell added = test::rect_cell(2, {2, 1.5f, 5}, x, z, 3);
-  added.surface = 0;
-  update.added_cells = {added};
+  update.added_cells = {map::map_cell_of(test::rect_cell(2, {2, 1.5f, 5}, x, z, 3), 2, 4, 0)};
   update.relabelled_cells = {{1, 0}};
   update.surface_merges = {map::SurfaceMerge{4, 1, 0}};
   update.removed_surfaces = {1};

@@ -169,6 +169,8 @@ TEST(FuzzRegression, FrameCellBeyondTheIndexRangeIsRejectedNotIndexed) {
 /// fuzz_lcm crash-3e7010a1 (UBSan): a map update whose cell has a vertex at -1.2·10³¹ m reached the
 /// subscriber's mirror_to_map, and the surface footprint converted it to int64 (overflow).
 /// Footprints now ignore rings beyond ±2³⁰ bits, and restoring the mirrored map refuses the cell.
+/// The finding's bytes predate the slim planecell_t (map store v3): they are now rejected as a
+/// foreign layout, and the same update is rebuilt with today's message type.
 TEST(FuzzRegression, LcmMapUpdateWithACellAtTenToTheThirtyOneMetres) {
   const std::string hex =
       "02cf23807268959f0900000000000003e800000000000000040000000000000001000000030000000200000003000000"
@@ -183,17 +185,27 @@ TEST(FuzzRegression, LcmMapUpdateWithACellAtTenToTheThirtyOneMetres) {
       "000000000000000000000000000000000000000000000000000000000000000000000000000000000000000000000000"
       "019000000000000000000000000000000001000000010000000000000000000000010000000100000000000000010000"
       "0001";
-  const std::vector<std::uint8_t> bytes = bytes_of_hex(hex);
-  ASSERT_EQ(bytes.front() % 4, 2);  // fuzz_lcm's selector: map_update_t
+  const std::vector<std::uint8_t> old_bytes = bytes_of_hex(hex);
+  ASSERT_EQ(old_bytes.front() % 4, 2);  // fuzz_lcm's selector: map_update_t
+  EXPECT_THROW((void)io::decode_map_update(std::span(old_bytes).subspan(1)), InputError);
+
+  io::MapUpdate far;
+  far.frame_id = 4;
+  map::MapCell cell = map::map_cell_of(test::rect_cell(2, {2, 1.5f, 5}, {1, 0, 0}, {0, 0, 1}, 3), 2, 4, 1);
+  cell.vertices_m[1].x() = -1.2e31f;
+  far.added_cells = {cell};
+  far.relabelled_cells = {{0, 1}};
+  far.next_cell_id = 3;
+  far.next_surface_id = 2;
   io::MapUpdateAssembler assembler;
-  const auto update = assembler.add(io::decode_map_update(std::span(bytes).subspan(1)));
+  const auto update =
+      assembler.add(io::decode_map_update(io::encode_bytes(io::encode_map_update(far, 1000).at(0))));
   ASSERT_TRUE(update.has_value());
   io::MapMirror mirror;  // as in fuzz_lcm: two mirrored road cells the update relabels
-  for (std::uint32_t id = 0; id < 2; ++id) {
-    Planecell c = test::rect_cell(id, {static_cast<float>(id), 1.5f, 5}, {1, 0, 0}, {0, 0, 1}, 3);
-    c.surface = id;
-    mirror.cells.emplace(id, c);
-  }
+  for (std::uint32_t id = 0; id < 2; ++id)
+    mirror.cells.emplace(id, map::map_cell_of(test::rect_cell(id, {static_cast<float>(id), 1.5f, 5},
+                                                              {1, 0, 0}, {0, 0, 1}, 3),
+                                               id, 0, id));
   mirror.apply(*update);
   EXPECT_THROW((void)services::mirror_to_map(mirror, MapConfig{}), StorageError);
 }

@@ -32,24 +32,12 @@ bool same_pixels(const cv::Mat& a, const cv::Mat& b) {
   return a.size() == b.size() && a.type() == b.type() && cv::norm(a, b, cv::NORM_INF) == 0.0;
 }
 
-bool same_cell(const Planecell& a, const Planecell& b) {
-  return a.id == b.id && a.frame_id == b.frame_id && a.surface == b.surface && a.has_plane == b.has_plane &&
-         a.disparity_plane.a == b.disparity_plane.a && a.disparity_plane.b == b.disparity_plane.b &&
-         a.disparity_plane.c == b.disparity_plane.c && a.plane.normal == b.plane.normal &&
-         a.plane.offset == b.plane.offset && a.vertices_px == b.vertices_px && a.vertices_m == b.vertices_m &&
-         a.mean_rgb == b.mean_rgb && a.histogram == b.histogram && a.area_px == b.area_px &&
-         a.inlier_count == b.inlier_count && a.inlier_ratio == b.inlier_ratio;
-}
-
-Planecell world_cell(std::uint32_t id) {
-  Planecell cell = test::rect_cell(id, {1.0f * static_cast<float>(id), 0.5f, 10.0f}, {0.3f, 0.0f, 0.0f},
-                                   {0.0f, 0.0f, 0.4f}, static_cast<int>(id % 64));
-  cell.frame_id = 7;
-  cell.surface = id / 3;
-  cell.disparity_plane = {0.001, -0.002, 35.5};
-  cell.inlier_count = 321;
-  cell.inlier_ratio = 0.875f;
-  return cell;
+map::MapCell world_cell(std::uint32_t id) {
+  const Planecell cell = test::rect_cell(id, {1.0f * static_cast<float>(id), 0.5f, 10.0f},
+                                         {0.3f, 0.0f, 0.0f}, {0.0f, 0.0f, 0.4f}, static_cast<int>(id % 64));
+  map::MapCell stored = map::map_cell_of(cell, id, 7, id / 3);
+  stored.depth_sigma_m = 0.125f;
+  return stored;
 }
 
 TEST(LcmCodec, StereoFrameRoundTripsRawAndPngExactly) {
@@ -133,9 +121,9 @@ TEST(LcmCodec, PoseRoundTripsAndBadMatricesAreRejected) {
 }
 
 TEST(LcmCodec, PlanecellRoundTripsExactlyAndBadCellsAreRejected) {
-  const Planecell cell = world_cell(5);
-  const Planecell back = from_lcm(to_lcm(cell));
-  EXPECT_TRUE(same_cell(cell, back));
+  const map::MapCell cell = world_cell(5);
+  const map::MapCell back = from_lcm(to_lcm(cell));
+  EXPECT_TRUE(cell == back);
   auto bad = to_lcm(cell);
   bad.num_vertices = 3;  // disagrees with the 4 stored
   EXPECT_THROW(from_lcm(bad), InputError);
@@ -143,7 +131,13 @@ TEST(LcmCodec, PlanecellRoundTripsExactlyAndBadCellsAreRejected) {
   bad.vertices_m[2][1] = std::nanf("");
   EXPECT_THROW(from_lcm(bad), InputError);
   bad = to_lcm(cell);
-  bad.histogram[3] = std::numeric_limits<float>::infinity();
+  bad.mean_rgb[1] = std::numeric_limits<float>::infinity();
+  EXPECT_THROW(from_lcm(bad), InputError);
+  bad = to_lcm(cell);
+  bad.depth_sigma_m = -0.5f;
+  EXPECT_THROW(from_lcm(bad), InputError);
+  bad = to_lcm(cell);
+  bad.frame_id = -1;
   EXPECT_THROW(from_lcm(bad), InputError);
 }
 
@@ -163,7 +157,7 @@ MapUpdate big_update(std::uint64_t frame_id, std::uint32_t first_id, std::uint32
 }
 
 TEST(LcmCodec, MapUpdatesAreChunkedUnderTheBudgetAndReassembled) {
-  const MapUpdate update = big_update(3, 100, 400);  // 400 cells × ~440 B ≈ 180 kB
+  const MapUpdate update = big_update(3, 100, 1200);  // 1200 cells × 116 B ≈ 140 kB
   const auto chunks = encode_map_update(update, 99);
   ASSERT_GT(chunks.size(), 3u);
   std::size_t cells = 0;
@@ -174,7 +168,7 @@ TEST(LcmCodec, MapUpdatesAreChunkedUnderTheBudgetAndReassembled) {
     EXPECT_EQ(chunks[i].chunk_count, static_cast<std::int32_t>(chunks.size()));
     cells += chunks[i].added.size();
   }
-  EXPECT_EQ(cells, 400u);
+  EXPECT_EQ(cells, 1200u);
 
   // Through bytes, delivered out of chunk order.
   MapUpdateAssembler assembler;
@@ -188,12 +182,12 @@ TEST(LcmCodec, MapUpdatesAreChunkedUnderTheBudgetAndReassembled) {
   ASSERT_TRUE(whole.has_value());
   ASSERT_EQ(whole->added_cells.size(), update.added_cells.size());
   for (std::size_t i = 0; i < update.added_cells.size(); ++i)
-    EXPECT_TRUE(same_cell(whole->added_cells[i], update.added_cells[i])) << i;
+    EXPECT_TRUE(whole->added_cells[i] == update.added_cells[i]) << i;
   EXPECT_EQ(whole->relabelled_cells, update.relabelled_cells);
   EXPECT_EQ(whole->removed_cells, update.removed_cells);
   EXPECT_EQ(whole->surface_merges, update.surface_merges);
   EXPECT_EQ(whole->removed_surfaces, update.removed_surfaces);
-  EXPECT_EQ(whole->next_cell_id, 500u);
+  EXPECT_EQ(whole->next_cell_id, 1300u);
   EXPECT_EQ(whole->next_surface_id, 77u);
   EXPECT_EQ(whole->map_cells, 1234u);
 }
@@ -203,7 +197,7 @@ TEST(LcmCodec, AnUpdateThatFitsIsOneChunkAndACellTooBigForTheBudgetIsRejected) {
   small.frame_id = 1;
   small.added_cells = {world_cell(0), world_cell(1)};
   EXPECT_EQ(encode_map_update(small, 0).size(), 1u);
-  EXPECT_THROW(encode_map_update(small, 0, 300), InputError);  // one cell is ~440 bytes
+  EXPECT_THROW(encode_map_update(small, 0, 100), InputError);  // one 4-vertex cell is 116 bytes
 }
 
 TEST(LcmCodec, OutOfOrderDuplicateAndInconsistentChunksAreRejected) {

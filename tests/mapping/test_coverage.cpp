@@ -19,30 +19,34 @@ Planecell road(std::uint32_t id, float x0, float w = 1.0f, int colour_bin = 3) {
   return rect_cell(id, {x0, 1.5f, 5}, w * kX, kZ, colour_bin);
 }
 
+/// The map's record of a hand-made cell.
+MapCell stored(const Planecell& cell) { return map_cell_of(cell, cell.id, 0, 0); }
+
 TEST(Coverage, SharesOfASquareCoveredByHandPlacedSquares) {
   const Planecell cell = road(0, 0);
-  const Planecell left = road(1, 0, 0.5f), right = road(2, 0.5f, 0.5f), far = road(3, 3);
+  const MapCell left = stored(road(1, 0, 0.5f)), right = stored(road(2, 0.5f, 0.5f)),
+                far = stored(road(3, 3));
   const int samples = 400;  // a 20 × 20 grid over the cell
   EXPECT_NEAR(covered_fraction(cell, std::vector{&left}, samples), 0.5, 0.03);
   EXPECT_NEAR(covered_fraction(cell, std::vector{&left, &right}, samples), 1.0, 1e-9);
   EXPECT_EQ(covered_fraction(cell, std::vector{&far}, samples), 0.0);
-  EXPECT_EQ(covered_fraction(cell, std::vector<const Planecell*>{}, samples), 0.0);
+  EXPECT_EQ(covered_fraction(cell, std::vector<const MapCell*>{}, samples), 0.0);
   // A covering square 0.2 m above the cell's plane projects onto the same area.
-  const Planecell lifted = rect_cell(4, {0, 1.3f, 5}, kX, kZ, 3);
+  const MapCell lifted = stored(rect_cell(4, {0, 1.3f, 5}, kX, kZ, 3));
   EXPECT_NEAR(covered_fraction(cell, std::vector{&lifted}, samples), 1.0, 1e-9);
 }
 
 TEST(Coverage, NearlyCoplanarGatesAngleAndRmsDistance) {
   const Planecell cell = road(0, 0);
-  EXPECT_TRUE(nearly_coplanar(cell, road(1, 0.5f), 10.0, 0.1));
+  EXPECT_TRUE(nearly_coplanar(cell, stored(road(1, 0.5f)), 10.0, 0.1));
   // 0.2 m above: RMS vertex distance 0.2 m.
-  const Planecell lifted = rect_cell(2, {0, 1.3f, 5}, kX, kZ, 3);
+  const MapCell lifted = stored(rect_cell(2, {0, 1.3f, 5}, kX, kZ, 3));
   EXPECT_FALSE(nearly_coplanar(cell, lifted, 10.0, 0.19));
   EXPECT_TRUE(nearly_coplanar(cell, lifted, 10.0, 0.21));
   // Tilted by 30° about the x axis through its near edge: rejected at 20°, accepted at 35° when
   // the vertices are close enough (RMS of 0, 0, 0.5, 0.5 = 0.354 m).
   const Eigen::Vector3f tilted_edge(0, -std::sin(0.5236f), std::cos(0.5236f));
-  const Planecell tilted = rect_cell(3, {0, 1.5f, 5}, kX, tilted_edge, 3);
+  const MapCell tilted = stored(rect_cell(3, {0, 1.5f, 5}, kX, tilted_edge, 3));
   EXPECT_FALSE(nearly_coplanar(cell, tilted, 20.0, 1.0));
   EXPECT_TRUE(nearly_coplanar(cell, tilted, 35.0, 0.36));
   EXPECT_FALSE(nearly_coplanar(cell, tilted, 35.0, 0.35));

@@ -11,12 +11,11 @@ namespace planecell::services::bench {
 namespace {
 
 /// A horizontal square [x0, x0 + size] × [z0, z0 + size] at height h (world y = −h: y is down).
-Planecell flat_square(std::uint32_t id, float x0, float z0, float size, float h,
-                      std::uint32_t surface) {
-  Planecell cell = test::rect_cell(id, Eigen::Vector3f(x0, -h, z0), Eigen::Vector3f(size, 0, 0),
-                                   Eigen::Vector3f(0, 0, size), 3);
-  cell.surface = surface;
-  return cell;
+map::MapCell flat_square(std::uint32_t id, float x0, float z0, float size, float h,
+                         std::uint32_t surface) {
+  const Planecell cell = test::rect_cell(id, Eigen::Vector3f(x0, -h, z0), Eigen::Vector3f(size, 0, 0),
+                                         Eigen::Vector3f(0, 0, size), 3);
+  return map::map_cell_of(cell, id, 0, surface);
 }
 
 cv::Vec3b at(const cv::Mat& image, const PlotArea& area, double x, double z) {
@@ -25,7 +24,7 @@ cv::Vec3b at(const cv::Mat& image, const PlotArea& area, double x, double z) {
 
 TEST(TopView, CellsLandWhereTheAxesSayInTheirSurfaceColour) {
   // A road square (surface 4) and a raised square (surface 9) partly over it.
-  const std::vector<Planecell> cells = {flat_square(1, 0, 0, 4, 0.0f, 4),
+  const std::vector<map::MapCell> cells = {flat_square(1, 0, 0, 4, 0.0f, 4),
                                         flat_square(2, 3, 3, 2, 1.5f, 9)};
   TopViewOptions options;
   options.colour = TopViewColour::kSurface;
@@ -42,7 +41,7 @@ TEST(TopView, CellsLandWhereTheAxesSayInTheirSurfaceColour) {
 }
 
 TEST(TopView, HeightColoursSeparateLowAndHighCells) {
-  const std::vector<Planecell> cells = {flat_square(1, 0, 0, 4, 0.0f, 1),
+  const std::vector<map::MapCell> cells = {flat_square(1, 0, 0, 4, 0.0f, 1),
                                         flat_square(2, 6, 0, 4, 2.0f, 1)};
   TopViewOptions options;  // height
   const cv::Mat image = render_top_view(cells, options);
@@ -55,7 +54,7 @@ TEST(TopView, HeightColoursSeparateLowAndHighCells) {
 }
 
 TEST(TopView, RejectsAMapWithoutVerticesAndAZeroUp) {
-  std::vector<Planecell> cells(2);
+  std::vector<map::MapCell> cells(2);
   EXPECT_THROW(render_top_view(cells, {}), InputError);
   cells = {flat_square(1, 0, 0, 1, 0.0f, 1)};
   TopViewOptions options;

@@ -159,7 +159,7 @@ TEST_F(LcmEndToEndTest, ListenersMirrorEqualsTheDaemonsMap) {
   EXPECT_EQ(mirror_map.next_cell_id(), daemon_map.next_cell_id());
   std::set<std::uint32_t> daemon_labels, mirror_labels;
   for (const auto& [id, cell] : daemon_map.cells()) {
-    const Planecell* m = mirror_map.cell(id);
+    const map::MapCell* m = mirror_map.cell(id);
     ASSERT_NE(m, nullptr) << "cell " << id;
     EXPECT_EQ(m->surface, cell.surface) << "cell " << id;
     EXPECT_EQ(m->plane.normal, cell.plane.normal) << "cell " << id;

@@ -1,0 +1,48 @@
+#pragma once
+/// The planecell as the global map keeps it: its world-frame plane and polygon, colour, depth
+/// noise, provenance and surface label. The image-side fields of a Planecell (disparity plane,
+/// pixel polygon, colour histogram, pixel and inlier counts) stay with the frame: a stored cell's
+/// colour evidence lives in its surface's histogram. Header-only: io (map store, LCM) uses it
+/// without linking planecell_mapping.
+#include <Eigen/Core>
+#include <cstdint>
+#include <vector>
+
+#include "core/plane.hpp"
+#include "core/planecell.hpp"
+
+namespace planecell::map {
+
+struct MapCell {
+  std::uint32_t id = 0;                 ///< map cell id
+  std::uint32_t surface = kNoSurface;   ///< CRF surface label
+  std::uint64_t frame_id = 0;           ///< frame it was extracted from
+  Plane3 plane;                         ///< n·X + e = 0, world frame
+  std::vector<Eigen::Vector3f> vertices_m;  ///< ordered polygon, world frame
+  Eigen::Vector3f mean_rgb = Eigen::Vector3f::Zero();  ///< 0..255, R G B order
+  /// 1-σ depth uncertainty of the plane at the polygon's centroid (m; Planecell::depth_sigma_m).
+  float depth_sigma_m = 0.0f;
+
+  bool operator==(const MapCell& o) const {
+    return id == o.id && surface == o.surface && frame_id == o.frame_id &&
+           plane.normal == o.plane.normal && plane.offset == o.plane.offset &&
+           vertices_m == o.vertices_m && mean_rgb == o.mean_rgb && depth_sigma_m == o.depth_sigma_m;
+  }
+};
+
+/// The map's record of world-frame planecell `cell` under map id `id`, from frame `frame_id`,
+/// on surface `surface`.
+inline MapCell map_cell_of(const Planecell& cell, std::uint32_t id, std::uint64_t frame_id,
+                           std::uint32_t surface) {
+  MapCell m;
+  m.id = id;
+  m.surface = surface;
+  m.frame_id = frame_id;
+  m.plane = cell.plane;
+  m.vertices_m = cell.vertices_m;
+  m.mean_rgb = cell.mean_rgb;
+  m.depth_sigma_m = cell.depth_sigma_m;
+  return m;
+}
+
+}  // namespace planecell::map
