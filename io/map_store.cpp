@@ -91,7 +91,7 @@ std::vector<std::uint8_t> encode_surface(const map::Surface& s) {
   w.put(s.moments.weight);
   w.put_matrix(s.moments.sum);
   w.put_matrix(s.moments.sum_outer);
-  for (float h : s.histogram) w.put(h);
+  for (std::uint16_t h : s.histogram) w.put(h);
   w.put(s.histogram_weight_m2);
   w.put_matrix(s.mean_rgb);
   w.put(s.observed_area_m2);
@@ -122,7 +122,7 @@ map::Surface decode_surface(std::uint32_t id, const void* data, std::size_t size
   s.moments.weight = r.get<double>();
   r.get_matrix(s.moments.sum);
   r.get_matrix(s.moments.sum_outer);
-  for (float& h : s.histogram) h = r.get<float>();
+  for (std::uint16_t& h : s.histogram) h = r.get<std::uint16_t>();
   s.histogram_weight_m2 = r.get<double>();
   r.get_matrix(s.mean_rgb);
   s.observed_area_m2 = r.get<double>();

@@ -35,11 +35,28 @@ std::string cell_problem(const Plane3& plane, std::span<const Eigen::Vector3f> v
   return {};
 }
 
+}  // namespace
+
+CompactHistogram compact(const ColourHistogram& histogram) {
+  CompactHistogram out;
+  for (std::size_t q = 0; q < out.size(); ++q)
+    out[q] = static_cast<std::uint16_t>(std::lround(std::clamp(histogram[q], 0.0f, 1.0f) * 65535.0f));
+  return out;
+}
+
+ColourHistogram expand(const CompactHistogram& histogram) {
+  ColourHistogram out;
+  for (std::size_t q = 0; q < out.size(); ++q) out[q] = static_cast<float>(histogram[q]) / 65535.0f;
+  return out;
+}
+
+namespace {
+
 LabelState state_of_surface(const Surface& surface) {
   LabelState s;
   s.plane = surface.plane;
   s.moments = surface.moments;
-  s.histogram = surface.histogram;
+  s.histogram = expand(surface.histogram);
   s.histogram_weight_m2 = surface.histogram_weight_m2;
   s.area_m2 = surface.area_m2;
   s.observed_area_m2 = surface.observed_area_m2;
@@ -413,7 +430,7 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
     const LabelState& state = state_it->second;
     surface.plane = state.plane;
     surface.moments = state.moments;
-    surface.histogram = state.histogram;
+    surface.histogram = compact(state.histogram);
     surface.histogram_weight_m2 = state.histogram_weight_m2;
   }
   report.updated_surfaces.assign(touched.begin(), touched.end());

@@ -2,6 +2,7 @@
 /// The global planecell map: world-frame cells grouped into surfaces by the incremental CRF merger
 /// (paper §5.2), with a spatial index, footprint fusion (map size grows with area, not frames),
 /// planner queries and memory accounting.
+#include <array>
 #include <cstdint>
 #include <opencv2/core/mat.hpp>
 #include <optional>
@@ -20,12 +21,21 @@
 
 namespace planecell::map {
 
+/// A colour histogram kept at 16 bits per bin: bin q holds round(h_q · 65535) of a histogram h
+/// normalised to sum 1 (half the bytes of ColourHistogram; error ≤ 2⁻¹⁷ per bin).
+using CompactHistogram = std::array<std::uint16_t, kColourHistogramBins>;
+
+/// h_q → round(clamp(h_q, 0, 1) · 65535).
+CompactHistogram compact(const ColourHistogram& histogram);
+/// q → q / 65535.
+ColourHistogram expand(const CompactHistogram& histogram);
+
 /// A surface: coplanar cells sharing one CRF label.
 struct Surface {
   std::uint32_t id = 0;
   Plane3 plane;                  ///< least-squares plane of all integrated cells (world)
   PlaneMoments moments;          ///< area-weighted vertex moments behind `plane`
-  ColourHistogram histogram{};   ///< area-weighted mean of the integrated cells' histograms
+  CompactHistogram histogram{};  ///< area-weighted mean of the integrated cells' histograms
   double histogram_weight_m2 = 0.0;
   Eigen::Vector3f mean_rgb = Eigen::Vector3f::Zero();  ///< area-weighted mean colour (0..255 RGB)
   double observed_area_m2 = 0.0;  ///< Σ area of every integrated cell, fused ones included

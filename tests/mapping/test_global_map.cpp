@@ -105,6 +105,24 @@ TEST(GlobalMapTest, RejectsCellsNoisierThanMaxDepthSigma) {
   }
 }
 
+/// Surfaces keep their colour histogram at 16 bits per bin: a round trip moves each bin by at most
+/// half a quantum (2⁻¹⁷), and a surface's stored histogram is its only cell's, so compact.
+TEST(GlobalMapTest, SurfaceHistogramsKeepSixteenBitsPerBin) {
+  ColourHistogram h{};
+  for (std::size_t q = 0; q < h.size(); ++q) h[q] = static_cast<float>(q + 1) / 2080.0f;  // Σ = 1
+  const ColourHistogram back = expand(compact(h));
+  for (std::size_t q = 0; q < h.size(); ++q) EXPECT_NEAR(back[q], h[q], 0.5 / 65535.0 + 1e-7) << q;
+  EXPECT_EQ(compact(ColourHistogram{})[0], 0u);
+  ColourHistogram one{};
+  one[5] = 1.0f;
+  EXPECT_EQ(compact(one)[5], 65535u);
+  GlobalMap map;
+  const Planecell cell = rect_cell(0, {0, 1.5f, 5}, kX, kZ, 7);
+  map.integrate(0, Pose::Identity(), std::vector<Planecell>{cell});
+  ASSERT_EQ(map.surfaces().size(), 1u);
+  EXPECT_EQ(map.surfaces().begin()->second.histogram, compact(cell.histogram));
+}
+
 /// A new surface's footprint basis puts its first cell mid-tile: a 1 m cell (10 × 10 bits of
 /// 10 cm) fills one 32 × 32-bit tile, not the corners of four around the basis origin.
 TEST(GlobalMapTest, FirstCellOfASurfaceFillsOneFootprintTile) {
