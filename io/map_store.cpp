@@ -297,7 +297,8 @@ MapStore::MapStore(const std::filesystem::path& path) : path_(path) {
         fail("a foreign SQLite database (format is not 'planecell-map'); left unchanged");
       Statement version(db_, "SELECT value FROM meta WHERE key='version'", *this);
       if (!version.step(rc) || version.text(0) != kVersion)
-        fail("unsupported planecell map version '" + version.text(0) + "'");
+        fail("planecell map version '" + version.text(0) + "' is not the version " + kVersion +
+             " this build reads (written by another planecell release; left unchanged)");
     }
     exec("PRAGMA journal_mode=WAL");
     exec("PRAGMA synchronous=NORMAL");

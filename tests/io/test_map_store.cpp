@@ -156,6 +156,33 @@ TEST(MapStoreTest, ForeignSqliteDatabaseIsRejectedAndLeftUnchanged) {
   EXPECT_EQ(read_bytes(path), before);
 }
 
+/// A store of another format version (v2 kept the image-side cell fields) is refused with both
+/// versions named, and not touched.
+TEST(MapStoreTest, OtherFormatVersionIsRejectedByNameAndLeftUnchanged) {
+  test::ScratchDir dir;
+  const auto path = dir / "old.db";
+  {
+    MapStore store(path);
+    map::GlobalMap map;
+    drive(map, 2, &store);
+  }
+  sqlite3* db = nullptr;
+  ASSERT_EQ(sqlite3_open(path.c_str(), &db), SQLITE_OK);
+  ASSERT_EQ(sqlite3_exec(db, "UPDATE meta SET value='2' WHERE key='version';", nullptr, nullptr, nullptr),
+            SQLITE_OK);
+  sqlite3_close(db);
+  const std::string before = read_bytes(path);
+  try {
+    MapStore store(path);
+    FAIL() << "expected StorageError";
+  } catch (const StorageError& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("version '2' is not the version 3"), std::string::npos) << what;
+    EXPECT_NE(what.find(path.string()), std::string::npos) << what;
+  }
+  EXPECT_EQ(read_bytes(path), before);
+}
+
 TEST(MapStoreTest, TruncatedCopyIsRejected) {
   test::ScratchDir dir;
   const auto path = dir / "map.db";
