@@ -29,18 +29,21 @@ void check_pixels(const std::filesystem::path& path, std::int64_t width, std::in
                      std::to_string(max_pixels) + " pixels");
 }
 
-/// The image formats planecell reads, recognised by their first bytes: PNG, JPEG and binary or
-/// ASCII PNM (P1–P6). OpenCV would also try its other decoders (DICOM, HDR, TIFF, …) on anything
-/// else, and a corrupt file can then claim gigabytes before any size check could see it.
+/// The image formats planecell reads, recognised by their first bytes exactly as OpenCV's own
+/// decoders recognise them (so one of those claims the file first): PNG, JPEG, and binary or
+/// ASCII PNM (P1–P6 followed by white space). OpenCV would also try its other decoders on anything
+/// else, and a corrupt file can then claim gigabytes or abort inside a library (gdcm asserts on a
+/// "DICM" tag at byte 128), so such files are refused here as well.
 bool has_supported_signature(const std::filesystem::path& path) {
   std::ifstream in(path, std::ios::binary);
-  unsigned char head[8] = {};
+  unsigned char head[132] = {};
   in.read(reinterpret_cast<char*>(head), sizeof(head));
   const auto got = in.gcount();
+  if (got >= 132 && std::memcmp(head + 128, "DICM", 4) == 0) return false;
   static const unsigned char kPng[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
   if (got >= 8 && std::memcmp(head, kPng, 8) == 0) return true;
   if (got >= 3 && head[0] == 0xFF && head[1] == 0xD8 && head[2] == 0xFF) return true;
-  return got >= 2 && head[0] == 'P' && head[1] >= '1' && head[1] <= '6';
+  return got >= 3 && head[0] == 'P' && head[1] >= '1' && head[1] <= '6' && std::isspace(head[2]);
 }
 
 /// Width and height from a PNM header ("P5 <w> <h> …", '#' comments allowed), if well formed.

@@ -9,7 +9,9 @@
 #include <vector>
 
 #include "core/error.hpp"
+#include "io/disparity_io.hpp"
 #include "io/euroc.hpp"
+#include "io/image_io.hpp"
 #include "io/lcm/lcm_codec.hpp"
 #include "io/map_store.hpp"
 #include "support/expect_error.hpp"
@@ -208,6 +210,34 @@ TEST(FuzzRegression, LcmMapUpdateWithACellAtTenToTheThirtyOneMetres) {
                                                id, 0, id));
   mirror.apply(*update);
   EXPECT_THROW((void)services::mirror_to_map(mirror, MapConfig{}), StorageError);
+}
+
+/// fuzz_kitti_disparity_png crash-bee5897b (abort): "P5#…" passed the PNM signature check, but
+/// OpenCV's PNM decoder wants white space after the magic, so imread went on to its DICOM decoder
+/// ("DICM" at byte 128), where gdcm asserts. The signature check now mirrors OpenCV's and refuses
+/// a DICOM tag at byte 128 whatever the first bytes say.
+TEST(FuzzRegression, PnmMagicWithoutWhiteSpaceAndADicomTag) {
+  test::ScratchDir dir;
+  const std::vector<std::uint8_t> bytes = bytes_of_hex(
+      "5035233535353535ffffffffffffffffffffffffffffffffffffffffff35373535ff093530ffffffff50ffd8ff353050"
+      "b1ffffffffffffffffffffffffffffffffffffffffffffffffffffffffffffffffffffffffffffffffffffffffffffff"
+      "ffffffffffffffffffffffffffffffffffffffffffff7a35ffffffffffffffff4449434db1");
+  ASSERT_EQ(bytes.size(), 133u);
+  std::ofstream(dir / "finding.png", std::ios::binary)
+      .write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()));
+  EXPECT_CONTAINS(input_error_of([&] { (void)read_kitti_disparity(dir / "finding.png"); }),
+                  "unrecognised signature");
+  // A well-formed PNM whose byte 128 happens to start a DICOM tag is refused the same way.
+  std::string pnm = "P5\n16 8\n255\n";
+  pnm.resize(pnm.size() + 16 * 8, '\x40');  // 12 header bytes + 128 pixels: byte 128 is a pixel
+  pnm.replace(128, 4, "DICM");
+  write_text(dir / "tagged.pgm", pnm);
+  EXPECT_CONTAINS(input_error_of([&] { (void)read_image_unchanged(dir / "tagged.pgm"); }),
+                  "unrecognised signature");
+  // Without the tag it reads.
+  pnm.replace(128, 4, "@@@@");
+  write_text(dir / "plain.pgm", pnm);
+  EXPECT_EQ(read_image_unchanged(dir / "plain.pgm").size(), cv::Size(16, 8));
 }
 
 /// fuzz_lcm crash-f0f7ba7d (ASan out-of-memory): a map_stats_t whose queue count claims ~10⁹
