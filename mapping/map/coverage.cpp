@@ -8,17 +8,23 @@
 
 namespace planecell::map {
 
-bool nearly_coplanar(const Planecell& cell, const MapCell& old, double max_angle_deg,
+bool nearly_coplanar(const Plane3& plane, const Plane3& vertices_plane,
+                     std::span<const Eigen::Vector3f> vertices, double max_angle_deg,
                      double max_distance_m) {
-  if (old.vertices_m.empty()) return false;
-  const double cos_angle = std::abs(cell.plane.normal.dot(old.plane.normal));
+  if (vertices.empty()) return false;
+  const double cos_angle = std::abs(plane.normal.dot(vertices_plane.normal));
   if (cos_angle < std::cos(max_angle_deg * M_PI / 180.0)) return false;
   double sum_sq = 0.0;
-  for (const auto& v : old.vertices_m) {
-    const double d = cell.plane.normal.dot(v.cast<double>()) + cell.plane.offset;
+  for (const auto& v : vertices) {
+    const double d = plane.signed_distance(v.cast<double>());
     sum_sq += d * d;
   }
-  return sum_sq <= max_distance_m * max_distance_m * static_cast<double>(old.vertices_m.size());
+  return sum_sq <= max_distance_m * max_distance_m * static_cast<double>(vertices.size());
+}
+
+bool nearly_coplanar(const Planecell& cell, const MapCell& old, double max_angle_deg,
+                     double max_distance_m) {
+  return nearly_coplanar(cell.plane, old.plane, old.vertices_m, max_angle_deg, max_distance_m);
 }
 
 double covered_fraction(const Plane3& plane, std::span<const Eigen::Vector3f> vertices,

@@ -1,7 +1,7 @@
 #pragma once
 /// Re-observation by coverage: how much of a new planecell the map already holds. A cell whose
-/// polygon is mostly covered by nearly coplanar stored cells (whatever their surface label) adds no
-/// new space to the map, so the map grows with the area explored, not with the number of frames.
+/// polygon is mostly covered by nearly coplanar stored cells or surface footprints (whatever their
+/// surface label) adds no new space to the map, so the map grows with the area explored, not with the number of frames.
 #include <functional>
 #include <span>
 #include <vector>
@@ -12,8 +12,14 @@
 
 namespace planecell::map {
 
-/// Stored cell `old` may cover `cell` when their normals are within `max_angle_deg` and the RMS
-/// distance of old's vertices to cell's plane, √(Σ (n·v + e)² / K), is within `max_distance_m`.
+/// The polygon `vertices` (on `vertices_plane`) nearly lies on `plane`: the normals are within
+/// `max_angle_deg` and the RMS distance of the vertices to `plane`, √(Σ (n·v + e)² / K), is within
+/// `max_distance_m`. False for an empty polygon.
+bool nearly_coplanar(const Plane3& plane, const Plane3& vertices_plane,
+                     std::span<const Eigen::Vector3f> vertices, double max_angle_deg,
+                     double max_distance_m);
+
+/// Stored cell `old` may cover `cell`: old's polygon nearly lies on cell's plane (as above).
 bool nearly_coplanar(const Planecell& cell, const MapCell& old, double max_angle_deg,
                      double max_distance_m);
 

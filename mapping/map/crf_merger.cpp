@@ -144,9 +144,11 @@ double PlaneMoments::rms_distance_m(const Plane3& plane) const {
   return std::sqrt(std::max(0.0, mean_square));
 }
 
-double LabelState::sigma_m() const {
+double effective_sigma_m(const PlaneMoments& moments, double observed_area_m2) {
   return moments.weight > 0.0 ? std::sqrt(observed_area_m2 / moments.weight) : 0.0;
 }
+
+double LabelState::sigma_m() const { return effective_sigma_m(moments, observed_area_m2); }
 
 LabelState state_of_cell(const Planecell& cell, double area_m2, double sigma_floor_m) {
   const double sigma = std::max(static_cast<double>(cell.depth_sigma_m), sigma_floor_m);

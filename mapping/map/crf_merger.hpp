@@ -76,6 +76,12 @@ struct PlaneMoments {
   bool operator==(const PlaneMoments&) const = default;
 };
 
+/// Effective depth noise of observations with information-weighted moments `moments`
+/// (weight Σ area_i / σ_i²) covering Σ area_i = observed_area_m2:
+///   σ_eff = √(Σ area_i / Σ (area_i / σ_i²)) (m), the area-weighted harmonic mean of the σ², 0 when
+/// there is no weight.
+double effective_sigma_m(const PlaneMoments& moments, double observed_area_m2);
+
 /// State of one label during merging (a surface of the map or a fresh label of a new cell).
 struct LabelState {
   Plane3 plane;

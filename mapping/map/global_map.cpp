@@ -81,28 +81,6 @@ bool surfaces_equal(const Surface& a, const Surface& b) {
   return true;
 }
 
-/// Effective depth noise of a surface's observations, √(Σ area_i / Σ (area_i / σ_i²)) (m; see
-/// LabelState::sigma_m), 0 when unknown.
-double surface_sigma_m(const Surface& surface) {
-  return surface.moments.weight > 0.0 ? std::sqrt(surface.observed_area_m2 / surface.moments.weight)
-                                      : 0.0;
-}
-
-/// Surface `surface` may cover `cell`: normals within max_angle_deg, and the RMS distance of
-/// cell's vertices to the surface's plane, √(Σ (n·v + e)² / K), within max_distance_m.
-bool surface_covers_plane(const Surface& surface, const Planecell& cell, double max_angle_deg,
-                          double max_distance_m) {
-  if (surface.footprint.empty() || cell.vertices_m.empty()) return false;
-  if (std::abs(surface.plane.normal.dot(cell.plane.normal)) < std::cos(max_angle_deg * M_PI / 180.0))
-    return false;
-  double sum_sq = 0.0;
-  for (const auto& v : cell.vertices_m) {
-    const double d = surface.plane.signed_distance(v.cast<double>());
-    sum_sq += d * d;
-  }
-  return sum_sq <= max_distance_m * max_distance_m * static_cast<double>(cell.vertices_m.size());
-}
-
 /// How much of a new cell the map already holds, and where.
 struct Coverage {
   double fraction = 0.0;             ///< share of the cell's grid points covered
@@ -114,13 +92,12 @@ struct Coverage {
 /// and the surface that covers most grid points (a stored cell counts for its surface).
 Coverage coverage_of(const Planecell& cell, std::span<const MapCell* const> cells,
                      std::span<const Surface* const> surfaces) {
-  const PlaneBasis own = make_basis(cell.plane, vertex_centroid(cell.vertices_m));
-  std::vector<std::vector<Eigen::Vector2d>> rings;
-  rings.reserve(cells.size());
-  for (const MapCell* old : cells) rings.push_back(project_to_basis(old->vertices_m, own));
+  std::vector<std::vector<Eigen::Vector2d>> rings;  // the cells projected into cell's basis
   std::map<std::uint32_t, int> hits;  // by surface id: ties go to the oldest surface
   Coverage c;
   c.fraction = covered_fraction(cell.plane, cell.vertices_m, [&](const Eigen::Vector2d& st, const PlaneBasis& basis) {
+    if (rings.size() != cells.size())
+      for (const MapCell* old : cells) rings.push_back(project_to_basis(old->vertices_m, basis));
     bool any = false;
     for (std::size_t i = 0; i < cells.size(); ++i)
       if (rings[i].size() >= 3 && point_in_ring(rings[i], st)) {
@@ -265,6 +242,13 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
     const Planecell& cell = *fresh[k];
     const Aabb box = bounds_of(cell.vertices_m);
     const Aabb near_box = box.inflated(gap);
+    // A surface covering the cell: its plane within the cell's own noise, and its σ_eff at most
+    // redundant_precision_ratio × the cell's σ (floored like the surfaces' moments).
+    const double surface_tol = std::clamp(config_.redundant_sigma_factor * cell.depth_sigma_m,
+                                          config_.residual_scale_m, reach);
+    const double max_surface_sigma =
+        config_.redundant_precision_ratio *
+        std::max<double>(cell.depth_sigma_m, config_.residual_scale_m);
     for (std::uint32_t id : index_.query(box.inflated(reach))) {
       const MapCell& old = cells_.at(id);
       const bool neighbour = near_box.overlaps(bounds_of(old.vertices_m)) &&
@@ -299,12 +283,9 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
       if (std::find(candidates.begin(), candidates.end(), old.surface) != candidates.end())
         continue;
       const Surface& surface = surfaces_.at(old.surface);
-      const double own_noise = config_.redundant_sigma_factor * cell.depth_sigma_m;
-      // (σ floored like the surface's moments: at residual_scale_m)
-      const double cell_sigma = std::max<double>(cell.depth_sigma_m, config_.residual_scale_m);
-      if (surface_sigma_m(surface) <= config_.redundant_precision_ratio * cell_sigma &&
-          surface_covers_plane(surface, cell, angle_deg,
-                               std::clamp(own_noise, config_.residual_scale_m, reach)))
+      if (!surface.footprint.empty() &&
+          effective_sigma_m(surface.moments, surface.observed_area_m2) <= max_surface_sigma &&
+          nearly_coplanar(surface.plane, cell.plane, cell.vertices_m, angle_deg, surface_tol))
         candidates.push_back(old.surface);
     }
   }
@@ -345,8 +326,7 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
           std::find(covering_surface.begin(), covering_surface.end(), &it->second) == covering_surface.end())
         covering_surface.push_back(&it->second);
     }
-    const Coverage coverage = config_.redundant_coverage <= 1.0 &&
-                                      (!covering[k].empty() || !covering_surface.empty())
+    const Coverage coverage = coverage_rule && (!covering[k].empty() || !covering_surface.empty())
                                   ? coverage_of(cell, covering[k], covering_surface)
                                   : Coverage{};
     const bool redundant = coverage.fraction >= config_.redundant_coverage;
