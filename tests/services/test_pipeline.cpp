@@ -73,7 +73,9 @@ TEST_F(PipelineTest, ThreadedReplayReportsStageCostsAndMemoryOverFrames) {
   for (std::size_t i = 0; i < report.memory.size(); ++i) {
     EXPECT_EQ(report.memory[i].frames, 2 * i);
     EXPECT_GT(report.memory[i].rss_bytes, 0u);
-    if (i > 0) EXPECT_GE(report.memory[i].elapsed_s, report.memory[i - 1].elapsed_s);
+    if (i > 0) {
+      EXPECT_GE(report.memory[i].elapsed_s, report.memory[i - 1].elapsed_s);
+    }
   }
   EXPECT_EQ(report.memory.back().map_bytes, report.map_bytes);
   EXPECT_GE(report.peak_rss_bytes, report.memory.back().rss_bytes);
