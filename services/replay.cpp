@@ -143,6 +143,7 @@ ReplayReport run_replay(const ReplayOptions& options, const AppConfig& config) {
     report.fused_cells += work.merge.fused_cells;
     report.redundant_cells += work.merge.redundant_cells;
     report.replaced_cells += work.merge.replaced_cells;
+    report.pruned_surfaces += work.merge.pruned_surfaces.size();
     report.surface_merges += work.merge.surface_merges.size();
     plane_fraction_sum += work.cells.plane_fraction;
     if (options.memory_sample_every > 0 && report.frames % options.memory_sample_every == 0)
@@ -270,6 +271,7 @@ nlohmann::json to_json(const ReplayReport& r) {
       {"plane_fraction", r.plane_fraction}, {"cells", r.cells_in_map},
       {"surfaces", r.surfaces},         {"fused_cells", r.fused_cells},
       {"redundant_cells", r.redundant_cells}, {"replaced_cells", r.replaced_cells},
+      {"pruned_surfaces", r.pruned_surfaces},
       {"surface_merges", r.surface_merges}, {"map_bytes", r.map_bytes},
       {"store_bytes", r.store_bytes},   {"bytes_per_frame", r.bytes_per_frame},
       {"stage_latency", stages},        {"wall_s", r.wall_s},
@@ -317,7 +319,7 @@ std::string summary_text(const ReplayReport& r) {
   out << "  map: " << r.cells_in_map << " cells, " << r.surfaces << " surfaces, "
       << r.fused_cells << " re-observations fused (" << r.redundant_cells
       << " by coverage), " << r.replaced_cells << " cells replaced by nearer ones, " << r.surface_merges
-      << " surface merges\n";
+      << " surface merges, " << r.pruned_surfaces << " unconfirmed surfaces pruned\n";
   out << "  size: " << r.map_bytes / 1024.0 << " kB in RAM (" << r.bytes_per_frame / 1024.0
       << " kB/frame)";
   if (r.store_bytes > 0) out << ", store " << r.store_bytes / 1024.0 << " kB on disk";

@@ -69,6 +69,7 @@ struct ReplayReport {
   std::size_t fused_cells = 0;     ///< re-observations folded into surfaces, not stored
   std::size_t redundant_cells = 0;  ///< of those, space the map already held (coverage rule)
   std::size_t replaced_cells = 0;   ///< stored cells replaced by nearer, more precise ones
+  std::size_t pruned_surfaces = 0;  ///< single-observation surfaces pruned as unconfirmed
   std::size_t surface_merges = 0;
   std::size_t map_bytes = 0;       ///< global map in RAM (GlobalMap::map_bytes)
   std::size_t store_bytes = 0;     ///< map store on disk (database + WAL), 0 without --map

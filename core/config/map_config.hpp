@@ -60,6 +60,12 @@ struct MapConfig {
   double redundant_sigma_factor = 2.0;
   double redundant_max_distance_m = 1.0;
   double redundant_precision_ratio = 4.0;  // σ ∝ Z²: a cell seen from half the distance
+  /// A surface still holding a single observation when new cells come near it again, this many
+  /// frames or more after it was stored, is pruned: nothing seen since confirmed it (no second
+  /// cell merged into it, fused into it or covered by it). Single-view outliers (a plane fitted
+  /// across a depth edge, a mismatched patch) then do not pile up, and a revisit adds only what
+  /// is new. 0 = keep every surface.
+  int unconfirmed_max_age_frames = 3;
   double footprint_resolution_m = 0.10;  ///< edge of a surface footprint bit (m; see map/footprint)
   double index_cell_m = 2.0;             ///< edge of the hashed 3D grid of cell bounds (m)
   // --- queries --------------------------------------------------------------------------------
@@ -87,6 +93,7 @@ void visit_fields(MapConfig& c, Visitor&& visit) {
   visit("redundant_sigma_factor", c.redundant_sigma_factor);
   visit("redundant_max_distance_m", c.redundant_max_distance_m);
   visit("redundant_precision_ratio", c.redundant_precision_ratio);
+  visit("unconfirmed_max_age_frames", c.unconfirmed_max_age_frames);
   visit("footprint_resolution_m", c.footprint_resolution_m);
   visit("index_cell_m", c.index_cell_m);
   visit("up_x", c.up_x);

@@ -237,6 +237,10 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
   std::vector<std::vector<const MapCell*>> superseded(fresh.size());  ///< ... and much less precise
   std::vector<std::vector<std::uint32_t>> covering_surfaces(fresh.size());  ///< nearly coplanar
   const bool coverage_rule = config_.redundant_coverage <= 1.0;
+  // Surfaces with a single observation, stored long enough ago, whose place new cells reach
+  // again: pruned at the end of the frame unless this frame confirms them.
+  std::set<std::uint32_t> unconfirmed;
+  const auto max_age = static_cast<std::uint64_t>(std::max(0, config_.unconfirmed_max_age_frames));
   const double reach = coverage_rule ? std::max(gap, config_.redundant_max_distance_m) : gap;
   for (std::size_t k = 0; k < fresh.size(); ++k) {
     const Planecell& cell = *fresh[k];
@@ -251,6 +255,9 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
         std::max<double>(cell.depth_sigma_m, config_.residual_scale_m);
     for (std::uint32_t id : index_.query(box.inflated(reach))) {
       const MapCell& old = cells_.at(id);
+      if (max_age > 0 && old.frame_id + max_age <= frame_id &&
+          surfaces_.at(old.surface).observations == 1)
+        unconfirmed.insert(old.surface);
       const bool neighbour = near_box.overlaps(bounds_of(old.vertices_m)) &&
                              polygons_within_m(cell.plane, cell.vertices_m, old.plane, old.vertices_m, gap);
       if (neighbour) {
@@ -332,6 +339,8 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
     const bool redundant = coverage.fraction >= config_.redundant_coverage;
     const std::uint32_t cover_surface = coverage.surface;
     if (redundant && !surfaces_.contains(root) && surfaces_.contains(cover_surface)) {
+      ++surfaces_.at(cover_surface).observations;  // a re-observation confirms the surface
+      touched.insert(cover_surface);
       report.cell_surfaces[fresh_input[k]] = cover_surface;
       ++report.fused_cells;
       ++report.redundant_cells;
@@ -397,6 +406,21 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
     cells_.erase(it);
     report.removed_cells.push_back(id);
     ++report.replaced_cells;
+  }
+  // Unconfirmed surfaces this frame reached but did not confirm leave the map with their cells.
+  for (std::uint32_t id : unconfirmed) {
+    const auto it = surfaces_.find(id);
+    if (it == surfaces_.end() || it->second.observations != 1 || touched.contains(id)) continue;
+    for (std::uint32_t cell_id : it->second.cells) {
+      const auto cell_it = cells_.find(cell_id);
+      if (cell_it == cells_.end()) continue;
+      index_.remove(cell_id, bounds_of(cell_it->second.vertices_m));
+      cells_.erase(cell_it);
+      report.removed_cells.push_back(cell_id);
+    }
+    surfaces_.erase(it);
+    report.removed_surfaces.push_back(id);
+    report.pruned_surfaces.push_back(id);
   }
   if (!report.removed_cells.empty())
     std::erase_if(report.relabelled_cells, [&](std::uint32_t id) { return !cells_.contains(id); });

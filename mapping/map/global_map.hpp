@@ -65,9 +65,12 @@ struct MergeReport {
   std::vector<std::uint32_t> added_cells;       ///< new stored cells (map ids)
   std::vector<std::uint32_t> relabelled_cells;  ///< existing cells whose surface changed
   std::size_t replaced_cells = 0;  ///< stored cells replaced by a nearer, more precise new cell
-  std::vector<std::uint32_t> removed_cells;     ///< cells deleted from the map (replaced)
+  std::vector<std::uint32_t> removed_cells;     ///< cells deleted from the map (replaced, pruned)
   std::vector<std::uint32_t> updated_surfaces;  ///< surfaces created or changed (alive, sorted)
-  std::vector<std::uint32_t> removed_surfaces;  ///< surfaces absorbed by merges
+  std::vector<std::uint32_t> removed_surfaces;  ///< surfaces absorbed by merges or pruned
+  /// Of removed_surfaces, those pruned as unconfirmed (MapConfig::unconfirmed_max_age_frames),
+  /// with their cells; the others were absorbed (surface_merges).
+  std::vector<std::uint32_t> pruned_surfaces;
   std::vector<SurfaceMerge> surface_merges;     ///< in merge order
   /// Per input cell (same order as the cells handed in): the surface it was integrated into at
   /// the end of this frame (stored or fused), kNoSurface when rejected. Later surface merges
@@ -109,7 +112,9 @@ class GlobalMap {
   /// cells near the new ones come from the spatial index. Runs the CRF merger, then fuses every
   /// new cell into its surface's footprint: a cell adding less than fuse_new_area_fraction of its
   /// own area is not stored. A stored cell keeps its map fields only (MapCell); its colour
-  /// histogram is folded into its surface's. Throws InputError on a bad pose.
+  /// histogram is folded into its surface's. A surface left with a single observation when new
+  /// cells come near it again MapConfig::unconfirmed_max_age_frames or more frames after it was
+  /// stored is pruned (MergeReport::pruned_surfaces). Throws InputError on a bad pose.
   MergeReport integrate(std::uint64_t frame_id, const Pose& T_world_cam,
                         std::span<const Planecell> cells_world,
                         std::span<const LabelEdge> image_adjacency = {});

@@ -45,6 +45,7 @@ void MergeEvaluator::add_frame(const cv::Mat& labels, const cv::Mat& gt_surface_
                         report.cell_surfaces[i]});
   }
   for (const auto& merge : report.surface_merges) merged_into_[merge.absorbed] = merge.into;
+  pruned_.insert(report.pruned_surfaces.begin(), report.pruned_surfaces.end());
 }
 
 std::uint32_t MergeEvaluator::final_label(std::uint32_t label) const {
@@ -55,14 +56,19 @@ std::uint32_t MergeEvaluator::final_label(std::uint32_t label) const {
 
 MergeMetrics MergeEvaluator::finish() const {
   MergeMetrics m;
-  m.cells = samples_.size();
   m.mixed_cells = mixed_;
   std::map<std::uint16_t, std::map<std::uint32_t, double>> gt_label_area;
   std::map<std::uint32_t, std::map<std::uint16_t, double>> label_gt_area;
   std::vector<std::uint32_t> final_labels;
+  std::vector<const Sample*> kept;  // samples whose final label is still in the map
   final_labels.reserve(samples_.size());
   for (const auto& s : samples_) {
     const std::uint32_t label = final_label(s.label);
+    if (pruned_.contains(label)) {
+      ++m.pruned_cells;
+      continue;
+    }
+    kept.push_back(&s);
     final_labels.push_back(label);
     gt_label_area[s.gt][label] += s.area_m2;
     label_gt_area[label][s.gt] += s.area_m2;
@@ -90,9 +96,10 @@ MergeMetrics MergeEvaluator::finish() const {
                            return a.second < b.second;
                          })->first;
   std::size_t crossed = 0;
-  for (std::size_t k = 0; k < samples_.size(); ++k)
-    if (dominant_gt.at(final_labels[k]) != samples_[k].gt) ++crossed;
-  if (!samples_.empty()) m.cross_merged_cells = static_cast<double>(crossed) / static_cast<double>(samples_.size());
+  for (std::size_t k = 0; k < kept.size(); ++k)
+    if (dominant_gt.at(final_labels[k]) != kept[k]->gt) ++crossed;
+  m.cells = kept.size();
+  if (!kept.empty()) m.cross_merged_cells = static_cast<double>(crossed) / static_cast<double>(kept.size());
   return m;
 }
 

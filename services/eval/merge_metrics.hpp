@@ -6,6 +6,7 @@
 #include <opencv2/core/mat.hpp>
 #include <span>
 #include <unordered_map>
+#include <unordered_set>
 #include <vector>
 
 #include "core/planecell.hpp"
@@ -18,6 +19,7 @@ struct MergeMetrics {
   std::size_t mixed_cells = 0;   ///< cells left out: < 50 % of their pixels on one GT surface
   std::size_t gt_surfaces = 0;   ///< GT surfaces covered by at least one cell
   std::size_t labels = 0;        ///< final map surfaces those cells ended in
+  std::size_t pruned_cells = 0;  ///< cells whose surface was pruned as unconfirmed (left out)
   /// Σ_g A(g, L*(g)) / Σ_g A(g): share of GT surface area (cell areas, m²) that lies in its GT
   /// surface's dominant label L*(g) = argmax_L A(g, L).
   double area_in_dominant_label = 0.0;
@@ -52,6 +54,7 @@ class MergeEvaluator {
   std::vector<Sample> samples_;
   std::size_t mixed_ = 0;
   std::unordered_map<std::uint32_t, std::uint32_t> merged_into_;  ///< absorbed → into
+  std::unordered_set<std::uint32_t> pruned_;  ///< surfaces pruned as unconfirmed: not in the map
 };
 
 }  // namespace planecell::services::eval

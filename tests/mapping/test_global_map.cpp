@@ -230,6 +230,77 @@ TEST(Fusion, SameCellObservedTwiceDoesNotGrowTheMap) {
   EXPECT_LE(map.map_bytes(), bytes1 + bytes1 / 50);  // ≤ 2 % growth
 }
 
+/// A 4 m × 2 m road (8 cells of one colour, one surface) with, in frame 0 only, a 1 m panel
+/// standing on it across the road (plane z = 5) and a 1 m panel along it (plane x = 2.5,
+/// seen again in `panel_frames`). Both panels hold one observation when first stored.
+struct PruneScene {
+  std::vector<Planecell> road() const {
+    std::vector<Planecell> cells;
+    for (int i = 0; i < 4; ++i)
+      for (int j = 0; j < 2; ++j)
+        cells.push_back(rect_cell(static_cast<std::uint32_t>(cells.size()),
+                                  {-2.0f + i, 1.5f, 4.0f + j}, kX, kZ, 3));
+    return cells;
+  }
+  Planecell across() const { return rect_cell(20, {-1.0f, 0.5f, 5.0f}, kX, kY, 9); }
+  Planecell along() const { return rect_cell(21, {2.5f, 0.5f, 4.0f}, kZ, kY, 12); }
+};
+
+TEST(Fusion, ASingleViewSurfaceNotSeenAgainIsPrunedWhenItsPlaceIsRevisited) {
+  const PruneScene scene;
+  MapConfig config;
+  ASSERT_EQ(config.unconfirmed_max_age_frames, 3);
+  GlobalMap map(config);
+  std::vector<Planecell> first = scene.road();
+  first.push_back(scene.across());
+  first.push_back(scene.along());
+  const auto r0 = map.integrate(0, Pose::Identity(), first);
+  ASSERT_EQ(r0.added_cells.size(), 10u);
+  ASSERT_EQ(map.surfaces().size(), 3u);  // road, panel across, panel along
+  const std::uint32_t across_surface = r0.cell_surfaces[8];
+  const std::uint32_t along_surface = r0.cell_surfaces[9];
+  const std::uint32_t across_cell = r0.added_cells[8];
+  ASSERT_EQ(map.surface(across_surface)->observations, 1u);
+  // Frames 1–3 see the road again; frame 1 also sees the panel along the road again.
+  for (std::uint64_t f = 1; f <= 3; ++f) {
+    std::vector<Planecell> cells = scene.road();
+    if (f == 1) cells.push_back(scene.along());
+    const auto r = map.integrate(f, Pose::Identity(), cells);
+    EXPECT_TRUE(r.added_cells.empty()) << "frame " << f;
+    if (f < 3) {
+      // Younger than unconfirmed_max_age_frames: kept.
+      EXPECT_TRUE(r.pruned_surfaces.empty()) << "frame " << f;
+      EXPECT_NE(map.surface(across_surface), nullptr) << "frame " << f;
+    } else {
+      // Three frames old, its place seen again, never confirmed: gone with its cell.
+      EXPECT_EQ(r.pruned_surfaces, (std::vector<std::uint32_t>{across_surface}));
+      EXPECT_EQ(r.removed_surfaces, (std::vector<std::uint32_t>{across_surface}));
+      EXPECT_EQ(r.removed_cells, (std::vector<std::uint32_t>{across_cell}));
+    }
+  }
+  EXPECT_EQ(map.surface(across_surface), nullptr);
+  EXPECT_EQ(map.cell(across_cell), nullptr);
+  // The panel seen twice and the road stay.
+  ASSERT_NE(map.surface(along_surface), nullptr);
+  EXPECT_EQ(map.surface(along_surface)->observations, 2u);
+  EXPECT_EQ(map.surfaces().size(), 2u);
+  EXPECT_EQ(map.cells().size(), 9u);
+}
+
+TEST(Fusion, UnconfirmedSurfacesStayWhenPruningIsOff) {
+  const PruneScene scene;
+  MapConfig config;
+  config.unconfirmed_max_age_frames = 0;
+  GlobalMap map(config);
+  std::vector<Planecell> first = scene.road();
+  first.push_back(scene.across());
+  map.integrate(0, Pose::Identity(), first);
+  for (std::uint64_t f = 1; f <= 10; ++f)
+    EXPECT_TRUE(map.integrate(f, Pose::Identity(), scene.road()).pruned_surfaces.empty());
+  EXPECT_EQ(map.surfaces().size(), 2u);
+  EXPECT_EQ(map.cells().size(), 9u);
+}
+
 TEST(Fusion, LoopedDriveSecondPassGrowsMapByLessThan15Percent) {
   // A 4 m wide road along z, seen in 1 m × 2 m cells; pass 2 drives the same road with the
   // segmentation shifted by 0.7 m along the road (as a real re-observation would be) and 2 cm of plane noise.

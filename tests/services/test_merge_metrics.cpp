@@ -91,6 +91,31 @@ TEST(MergeMetrics, MixedAndRejectedCellsAreLeftOut) {
   EXPECT_EQ(m.cells, 1u);
 }
 
+TEST(MergeMetrics, CellsOfPrunedSurfacesAreLeftOut) {
+  MergeEvaluator eval;
+  cv::Mat labels, gt;
+  halves(labels, gt, 0, 1, 1, 2);
+  map::MergeReport first;
+  first.cell_surfaces = {10, 20};  // GT 1 in label 10, GT 2 in label 20
+  eval.add_frame(labels, gt, std::vector<Planecell>{square(0, 1.0f), square(1, 1.0f)}, first);
+  halves(labels, gt, 3, 3, 1, 1);
+  map::MergeReport second;
+  second.cell_surfaces = {30};  // a second GT-1 cell in its own label ...
+  eval.add_frame(labels, gt, std::vector<Planecell>{square(3, 1.0f)}, second);
+  EXPECT_NEAR(eval.finish().area_one_label, 1.0 / 3.0, 1e-6);  // GT 1 split over 10 and 30
+  map::MergeReport third;
+  third.removed_surfaces = {30};
+  third.pruned_surfaces = {30};  // ... which the map later prunes as unconfirmed
+  halves(labels, gt, -1, -1, 0, 0);
+  eval.add_frame(labels, gt, std::vector<Planecell>{}, third);
+  const MergeMetrics m = eval.finish();
+  EXPECT_EQ(m.cells, 2u);
+  EXPECT_EQ(m.pruned_cells, 1u);
+  EXPECT_EQ(m.labels, 2u);
+  EXPECT_NEAR(m.area_one_label, 1.0, 1e-6);
+  EXPECT_NEAR(m.cross_merged_cells, 0.0, 1e-12);
+}
+
 TEST(MergeMetrics, MismatchedInputsAreClearErrors) {
   MergeEvaluator eval;
   cv::Mat labels(4, 4, CV_32S, cv::Scalar(0)), gt(4, 5, CV_16U, cv::Scalar(1));
