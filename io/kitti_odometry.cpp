@@ -97,6 +97,8 @@ KittiCalibration read_kitti_calibration(const fs::path& path) {
     std::string key = line.substr(0, colon);
     key.erase(0, key.find_first_not_of(" \t"));
     key.erase(key.find_last_not_of(" \t") + 1);
+    // KITTI raw / stereo 2015 calib_cam_to_cam.txt names the rectified projections P_rect_0N.
+    if (key.size() == 9 && key.compare(0, 8, "P_rect_0") == 0) key = std::string("P") + key[8];
     if (key.size() != 2 || key[0] != 'P' || key[1] < '0' || key[1] > '3') continue;  // Tr, ...
     const int index = key[1] - '0';
     if (line_of[index] != 0)

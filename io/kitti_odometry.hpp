@@ -18,7 +18,8 @@ struct KittiCalibration {
   std::array<std::array<double, 12>, 4> projection{};
 };
 
-/// Parses calib.txt ("P0: 12 numbers" ... "P3: ..."; other lines such as Tr are ignored).
+/// Parses calib.txt ("P0: 12 numbers" ... "P3: ..."; other lines such as Tr are ignored), or
+/// KITTI raw's calib_cam_to_cam.txt, whose "P_rect_00" … "P_rect_03" are read as P0 … P3.
 /// Throws InputError naming the path and line when a P line is missing or malformed.
 KittiCalibration read_kitti_calibration(const std::filesystem::path& path);
 /// Writes P0..P3 (and Tr = identity) in KITTI format. Throws StorageError on failure.

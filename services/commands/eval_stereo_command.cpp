@@ -6,8 +6,10 @@
 
 #include <fstream>
 #include <iostream>
+#include <optional>
 
 #include "core/error.hpp"
+#include "io/kitti_odometry.hpp"
 #include "io/stereo_datasets.hpp"
 #include "services/commands/commands.hpp"
 #include "services/eval/segmentation_metrics.hpp"
@@ -19,7 +21,7 @@ namespace planecell::services {
 namespace {
 
 struct EvalStereoOptions {
-  std::string dataset, root, json, report_md;
+  std::string dataset, root, json, report_md, calib;
   int max_pairs = 0;
 };
 
@@ -29,6 +31,7 @@ std::string command_line(const CommandContext& context, const EvalStereoOptions&
   if (!context.config_path.empty()) line += " --config " + report::shell_quote(context.config_path);
   line += " eval-stereo --dataset " + report::shell_quote(o.dataset) + " --root " + report::shell_quote(o.root);
   if (o.max_pairs > 0) line += " --max-pairs " + std::to_string(o.max_pairs);
+  if (!o.calib.empty()) line += " --calib " + report::shell_quote(o.calib);
   return line;
 }
 
@@ -43,10 +46,18 @@ int run_eval_stereo(const CommandContext& context, const EvalStereoOptions& opti
     refs.resize(static_cast<std::size_t>(options.max_pairs));
   const auto config = context.load_app_config();
   const auto methods = eval::default_stereo_methods(config.sgm, config.extraction);
+  std::optional<io::KittiCalibration> calib;
+  if (!options.calib.empty()) calib = io::read_kitti_calibration(options.calib);
   std::vector<eval::PairResult> results;
   for (const auto& ref : refs) {
     spdlog::info("eval-stereo: {}", ref.name);
-    const io::StereoSample sample = io::load_stereo_sample(ref);
+    io::StereoSample sample = io::load_stereo_sample(ref);
+    if (!sample.camera && calib) {
+      // The dataset gave no calibration: the rig of --calib (colour pair P2/P3) stands in.
+      sample.camera = io::stereo_camera_from_kitti(*calib, 2, sample.left.cols, sample.left.rows);
+      spdlog::info("eval-stereo: {}: camera from --calib (fx {:.1f} px, baseline {:.3f} m)", ref.name,
+                   sample.camera->fx, sample.camera->baseline_m);
+    }
     results.push_back(eval::evaluate_pair(sample, methods));
     // Synthetic pairs carry GT surface ids: score how the planecells follow the surfaces.
     if (dataset == io::StereoDataset::kSynthetic) {
@@ -88,6 +99,11 @@ void add_eval_stereo_command(CLI::App& app, CommandContext& context) {
                       "Also write the tables as a markdown report (the style of `planecell bench`; "
                       "bench --append FILE adds it to a bench report)");
   command->add_option("--max-pairs", options->max_pairs, "Evaluate at most N pairs (0 = all)");
+  command->add_option("--calib", options->calib,
+                      "KITTI calibration (calib.txt, or calib_cam_to_cam.txt of KITTI raw) for pairs\n"
+                      "whose dataset gives none, e.g. the KITTI 2012/2015 stereo samples: their\n"
+                      "3D accuracy is then computed with that rig (colour pair P2/P3)")
+      ->check(CLI::ExistingFile);
   context.add(command,
               [options](const CommandContext& ctx) { return run_eval_stereo(ctx, *options); });
 }

@@ -96,6 +96,27 @@ TEST(KittiCalibration, ReadsProjectionsAndBuildsBothPairs) {
   EXPECT_THROW(stereo_camera_from_kitti(calib, 1, 10, 10), InputError);
 }
 
+TEST(KittiCalibration, ReadsTheRectifiedProjectionsOfKittiRawCamToCam) {
+  test::ScratchDir dir;
+  // The layout of KITTI raw's calib_cam_to_cam.txt (other keys, some with colons in the value).
+  std::string text = "calib_time: 09-Jan-2012 13:57:47\ncorner_dist: 9.950000e-02\n";
+  const double tx[4] = {0.0, -387.5744, 44.85728, -339.5242};
+  for (int k = 0; k < 4; ++k) {
+    const std::string n = "0" + std::to_string(k);
+    text += "S_" + n + ": 1.392000e+03 5.120000e+02\n";
+    text += "R_rect_" + n + ": 1 0 0 0 1 0 0 0 1\n";
+    text += "P_rect_" + n + ": 721.5377 0 609.5593 " + std::to_string(tx[k]) +
+            " 0 721.5377 172.854 0 0 0 1 0\n";
+  }
+  write_text(dir / "calib_cam_to_cam.txt", text);
+  const KittiCalibration calib = read_kitti_calibration(dir / "calib_cam_to_cam.txt");
+  EXPECT_DOUBLE_EQ(calib.projection[3][3], -339.5242);
+  const StereoCamera colour = stereo_camera_from_kitti(calib, 2, 1242, 375);
+  EXPECT_DOUBLE_EQ(colour.fx, 721.5377);
+  EXPECT_DOUBLE_EQ(colour.cy, 172.854);
+  EXPECT_NEAR(colour.baseline_m, (44.85728 + 339.5242) / 721.5377, 1e-9);  // 0.5327 m
+}
+
 TEST(KittiCalibration, SwappedRowsGiveANegativeBaselineError) {
   test::ScratchDir dir;
   // P0 and P1 numbers swapped: the "right" camera is to the left.

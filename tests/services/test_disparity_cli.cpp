@@ -2,6 +2,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <filesystem>
 #include <fstream>
 #include <opencv2/imgproc.hpp>
 
@@ -109,6 +110,48 @@ TEST(EvalStereoCli, RunsOnMiddleburyAndWritesJson) {
   const std::string text((std::istreambuf_iterator<char>(json)), std::istreambuf_iterator<char>());
   EXPECT_NE(text.find("\"bad2_pct\""), std::string::npos);
   EXPECT_NE(text.find("tsukuba"), std::string::npos);
+}
+
+TEST(EvalStereoCli, CalibGivesKittiPairsWithoutOneTheirThreeDimensionalAccuracy) {
+  // A KITTI 2015 layout (image_2, image_3, disp_occ_0) without calibration, true disparity 7 px.
+  test::ScratchDir dir;
+  const auto training = dir / "training";
+  std::filesystem::create_directories(training / "image_2");
+  std::filesystem::create_directories(training / "image_3");
+  std::filesystem::create_directories(training / "disp_occ_0");
+  write_shifted_pair(dir, 160, 64);
+  std::filesystem::rename(dir / "left.png", training / "image_2" / "000000_10.png");
+  std::filesystem::rename(dir / "right.png", training / "image_3" / "000000_10.png");
+  io::write_image(training / "disp_occ_0" / "000000_10.png", cv::Mat(64, 160, CV_16U, cv::Scalar(7 * 256)));
+  std::ofstream(dir / "calib.txt") << "P0: 700 0 80 0 0 700 32 0 0 0 1 0\n"
+                                      "P1: 700 0 80 -350 0 700 32 0 0 0 1 0\n"
+                                      "P2: 700 0 80 0 0 700 32 0 0 0 1 0\n"
+                                      "P3: 700 0 80 -350 0 700 32 0 0 0 1 0\n";
+  auto eval_json = [&](const std::string& extra) {
+    std::string output;
+    const auto json_path = dir / "k.json";
+    const int code = run_command(planecell_binary() + " eval-stereo --dataset kitti --root " +
+                                     training.string() + " --json " + json_path.string() + extra,
+                                 &output);
+    EXPECT_EQ(code, 0) << output;
+    std::ifstream json(json_path);
+    return std::string((std::istreambuf_iterator<char>(json)), std::istreambuf_iterator<char>());
+  };
+  // Without a camera there is no 3D accuracy; with --calib (baseline 350 / 700 = 0.5 m, depth
+  // 700 · 0.5 / 7 = 50 m) there is, and the planecell SGM points lie within 1 m of the GT points.
+  EXPECT_EQ(eval_json("").find("\"points\""), std::string::npos);
+  const std::string with_calib = eval_json(" --calib " + (dir / "calib.txt").string());
+  const auto points = with_calib.find("\"points\"");
+  ASSERT_NE(points, std::string::npos) << with_calib;
+  const std::string key = "\"within_100cm_pct\": ";
+  const auto within = with_calib.find(key, points);
+  ASSERT_NE(within, std::string::npos);
+  EXPECT_GT(std::stod(with_calib.substr(within + key.size())), 50.0) << with_calib;
+  std::string output;
+  EXPECT_NE(run_command(planecell_binary() + " eval-stereo --dataset kitti --root " + training.string() +
+                            " --calib " + (dir / "missing.txt").string(),
+                        &output),
+            0);
 }
 
 TEST(EvalStereoCli, RejectsMissingRootAndBadDataset) {
