@@ -49,6 +49,20 @@ std::vector<std::string> latency_row(const std::string& name, const LatencySumma
           number(s.mean_ms, 1)};
 }
 
+/// The paper's own figures (planecell.tex: introduction, §6 "Evaluation and Discussion", Table 1).
+constexpr double kPaperExtractionS = 0.2;  ///< single core, about 700 planecells per frame
+constexpr double kPaperMergeS = 0.1;       ///< CRF aggregation per frame
+constexpr double kPaperBytesPerFrame = 45e3;
+/// Table 1, planecell on SGBM disparity (KITTI stereo): % of GT pixels within 10/20/50/100 cm.
+constexpr double kPaperTable1Sgbm[] = {33.49, 50.23, 72.91, 80.84};
+
+/// p50 of a replay stage, NaN when the stage did not run.
+double stage_p50(const BenchReport& r, const std::string& stage) {
+  for (const auto& [name, s] : r.replay.stage_latency)
+    if (name == stage) return s.p50_ms;
+  return std::nan("");
+}
+
 MemorySample final_memory(const BenchReport& r) {
   MemorySample m = r.memory.empty() ? MemorySample{} : r.memory.back();
   if (r.replay.store_bytes > 0) m.planecell_store_bytes = r.replay.store_bytes;  // WAL checkpointed
@@ -110,6 +124,37 @@ std::string format_markdown(const BenchReport& r) {
                         "this estimate) include waiting for a core"
                       : "")
        << ".\n\n";
+  }
+
+  // --- the paper -------------------------------------------------------------------------------
+  md << "## Against the paper\n\n"
+        "The paper's figures (its introduction, §6 and Table 1; Table 1 is on KITTI stereo pairs, "
+        "not on this sequence) next to this run's:\n\n";
+  {
+    const double cells_per_frame =
+        frames > 0 ? static_cast<double>(r.replay.cells_extracted) / static_cast<double>(frames) : 0.0;
+    const auto& c = r.accuracy[kPlanecell];
+    std::vector<std::vector<std::string>> rows = {
+        {"planecell extraction per frame (one core)",
+         number(1000.0 * kPaperExtractionS, 0) + " ms for ~700 cells",
+         number(stage_p50(r, "extract"), 1) + " ms p50 for " + number(cells_per_frame, 0) + " cells"},
+        {"CRF merging per frame", number(1000.0 * kPaperMergeS, 0) + " ms",
+         number(stage_p50(r, "merge"), 1) + " ms p50"},
+        {"map bytes per frame", bytes(kPaperBytesPerFrame),
+         bytes(static_cast<double>(mem.planecell_ram_bytes) / per_frame) + " in RAM, " +
+             bytes(static_cast<double>(mem.planecell_store_bytes) / per_frame) + " in the store"}};
+    if (!r.frame_scores.empty())
+      rows.push_back({"planecell within 10 / 20 / 50 / 100 cm (Table 1, SGBM input)",
+                      number(kPaperTable1Sgbm[0], 2) + " / " + number(kPaperTable1Sgbm[1], 2) +
+                          " / " + number(kPaperTable1Sgbm[2], 2) + " / " +
+                          number(kPaperTable1Sgbm[3], 2) + " %",
+                      pct(c, 0.1) + " / " + pct(c, 0.2) + " / " + pct(c, 0.5) + " / " + pct(c, 1.0) +
+                          " % (planecell SGM input)"});
+    md << report::table({"figure", "paper", "this run"}, rows) << again;
+    md << "\n" << (r.threaded ? "Stage times come from the threaded run (stages share the cores). "
+                               : "Stage times are single-thread. ")
+       << "`planecell eval-stereo --dataset kitti --root DIR --calib calib.txt` scores the same "
+          "Table 1 figures on KITTI stereo pairs.\n\n";
   }
 
   // --- accuracy --------------------------------------------------------------------------------

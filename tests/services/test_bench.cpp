@@ -3,6 +3,8 @@
 /// the CLI, and `eval-stereo --report-md`.
 #include <gtest/gtest.h>
 
+#include <iomanip>
+
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -192,6 +194,19 @@ TEST_F(BenchTest, MarkdownEmbedsTheFiguresAndFollowsEveryTableWithItsCommand) {
     ++blocks;
   }
   EXPECT_GE(blocks, 8);
+}
+
+TEST_F(BenchTest, MarkdownStatesThePapersFiguresNextToThisRun) {
+  const std::string md = read_file(*scratch_ / "report" / "report.md");
+  EXPECT_CONTAINS(md, "## Against the paper");
+  EXPECT_CONTAINS(md, "200 ms for ~700 cells");
+  EXPECT_CONTAINS(md, "| CRF merging per frame | 100 ms |");
+  EXPECT_CONTAINS(md, "33.49 / 50.23 / 72.91 / 80.84 %");
+  // This run's merge p50 and planecell accuracy, as in report.json.
+  const auto& merge = (*json_)["time"]["stages"]["merge"];
+  std::ostringstream p50;
+  p50 << std::fixed << std::setprecision(1) << merge["p50_ms"].get<double>();
+  EXPECT_CONTAINS(md, p50.str() + " ms p50 |");
 }
 
 TEST_F(BenchTest, ThreadedRunScoresTheSameFramesTheSame) {
