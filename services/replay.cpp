@@ -320,9 +320,9 @@ std::string summary_text(const ReplayReport& r) {
       << r.fused_cells << " re-observations fused (" << r.redundant_cells
       << " by coverage), " << r.replaced_cells << " cells replaced by nearer ones, " << r.surface_merges
       << " surface merges, " << r.pruned_surfaces << " unconfirmed surfaces pruned\n";
-  out << "  size: " << r.map_bytes / 1024.0 << " kB in RAM (" << r.bytes_per_frame / 1024.0
-      << " kB/frame)";
-  if (r.store_bytes > 0) out << ", store " << r.store_bytes / 1024.0 << " kB on disk";
+  out << "  size: " << r.map_bytes / 1024.0 << " KiB in RAM (" << r.bytes_per_frame / 1024.0
+      << " KiB/frame)";
+  if (r.store_bytes > 0) out << ", store " << r.store_bytes / 1024.0 << " KiB on disk";
   out << "\n";
   if (r.merge_metrics) {
     const auto& m = *r.merge_metrics;
@@ -333,8 +333,8 @@ std::string summary_text(const ReplayReport& r) {
   }
   if (r.voxel)
     out << "  voxel baseline (" << r.voxel_mode << "): " << r.voxel_leaves << " voxels, "
-        << r.voxel_bytes / 1024.0 << " kB in RAM, .ot " << r.voxel_ot_bytes / 1024.0 << " kB, .bt "
-        << r.voxel_bt_bytes / 1024.0 << " kB\n";
+        << r.voxel_bytes / 1024.0 << " KiB in RAM, .ot " << r.voxel_ot_bytes / 1024.0 << " KiB, .bt "
+        << r.voxel_bt_bytes / 1024.0 << " KiB\n";
   if (r.refine) out << summary_text(*r.refine);
   out << "  per-stage latency (ms, p50 / p95 / max; CPU ms p50, page faults per frame):";
   for (const auto& [name, s] : r.stage_latency) {

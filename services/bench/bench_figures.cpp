@@ -15,9 +15,9 @@ namespace {
 Axis bytes_axis(double lo, double hi) {
   Axis axis;
   axis.log10 = true;
-  axis.label = "bytes (log scale, 1 kB = 1024 B)";
-  axis.format = [](double v) {  // the ticks are whole multiples of a unit: "10 kB", "1 MB"
-    const char* units[] = {"B", "kB", "MB", "GB", "TB"};
+  axis.label = "bytes (log scale)";
+  axis.format = [](double v) {  // the ticks are whole multiples of a unit: "10 KiB", "1 MiB"
+    const char* units[] = {"B", "KiB", "MiB", "GiB", "TiB"};
     int unit = 0;
     while (v >= 1024.0 && unit < 4) v /= 1024.0, ++unit;
     return report::number(v, 0) + " " + units[unit];

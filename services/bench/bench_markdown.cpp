@@ -52,7 +52,6 @@ std::vector<std::string> latency_row(const std::string& name, const LatencySumma
 /// The paper's own figures (planecell.tex: introduction, §6 "Evaluation and Discussion", Table 1).
 constexpr double kPaperExtractionS = 0.2;  ///< single core, about 700 planecells per frame
 constexpr double kPaperMergeS = 0.1;       ///< CRF aggregation per frame
-constexpr double kPaperBytesPerFrame = 45e3;
 /// Table 1, planecell on SGBM disparity (KITTI stereo): % of GT pixels within 10/20/50/100 cm.
 constexpr double kPaperTable1Sgbm[] = {33.49, 50.23, 72.91, 80.84};
 
@@ -140,7 +139,7 @@ std::string format_markdown(const BenchReport& r) {
          number(stage_p50(r, "extract"), 1) + " ms p50 for " + number(cells_per_frame, 0) + " cells"},
         {"CRF merging per frame", number(1000.0 * kPaperMergeS, 0) + " ms",
          number(stage_p50(r, "merge"), 1) + " ms p50"},
-        {"map bytes per frame", bytes(kPaperBytesPerFrame),
+        {"map bytes per frame", "45 kB",
          bytes(static_cast<double>(mem.planecell_ram_bytes) / per_frame) + " in RAM, " +
              bytes(static_cast<double>(mem.planecell_store_bytes) / per_frame) + " in the store"}};
     if (!r.frame_scores.empty())

@@ -233,8 +233,8 @@ std::string describe_map_store(const fs::path& path) {
       << " with a surface label)\n";
   out << "  surfaces:     " << global_map.surfaces().size() << ", " << area_m2 << " m² in all\n";
   out << "  merges:       " << store.merge_history().size() << " surface merges recorded\n";
-  out << "  map in RAM:   " << global_map.map_bytes() / 1024.0 << " kB\n";
-  out << "  file size:    " << fs::file_size(path) / 1024.0 << " kB\n";
+  out << "  map in RAM:   " << global_map.map_bytes() / 1024.0 << " KiB\n";
+  out << "  file size:    " << fs::file_size(path) / 1024.0 << " KiB\n";
   return out.str();
 }
 

@@ -61,7 +61,7 @@ std::string number(double value, int precision) {
 
 std::string bytes(double value) {
   if (!std::isfinite(value)) return "–";
-  const char* units[] = {"B", "kB", "MB", "GB", "TB"};
+  const char* units[] = {"B", "KiB", "MiB", "GiB", "TiB"};  // powers of 1024
   int unit = 0;
   while (std::abs(value) >= 1024.0 && unit < 4) {
     value /= 1024.0;

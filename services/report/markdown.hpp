@@ -22,8 +22,8 @@ std::string image(const std::string& alt, const std::string& relative_path);
 /// Fixed notation with `precision` decimals; "–" for NaN or infinity.
 std::string number(double value, int precision = 1);
 
-/// Bytes in binary units with the unit named: "812 B", "12.3 kB", "4.56 MB", "1.20 GB"
-/// (1 kB = 1024 B, as in `planecell replay`'s summary).
+/// Bytes in binary units with the unit named: "812 B", "12.3 KiB", "4.56 MiB", "1.20 GiB"
+/// (as in `planecell replay`'s summary).
 std::string bytes(double value);
 
 /// The argument quoted for a POSIX shell when it needs it ('…' with ' escaped), else unchanged.

@@ -318,8 +318,8 @@ TEST(ReportMarkdown, TablesNumbersAndQuoting) {
   EXPECT_EQ(report::table({"a", "b"}, {{"1", "x|y"}, {"–", "z"}}),
             "| a | b |\n|---:|---|\n| 1 | x\\|y |\n| – | z |\n");
   EXPECT_EQ(report::bytes(812), "812 B");
-  EXPECT_EQ(report::bytes(1536), "1.50 kB");
-  EXPECT_EQ(report::bytes(5.0 * 1024 * 1024 * 42), "210 MB");
+  EXPECT_EQ(report::bytes(1536), "1.50 KiB");
+  EXPECT_EQ(report::bytes(5.0 * 1024 * 1024 * 42), "210 MiB");
   EXPECT_EQ(report::number(NAN), "–");
   EXPECT_EQ(report::number(2.346, 2), "2.35");
   EXPECT_EQ(report::shell_quote("/tmp/a b"), "'/tmp/a b'");
