@@ -44,6 +44,11 @@ class Pacer {
  public:
   explicit Pacer(double rate_hz) : rate_hz_(rate_hz), start_(Clock::now()) {}
   bool paced() const { return rate_hz_ > 0.0; }
+  /// Frame 0 is due now (after a warm-up).
+  void restart() {
+    start_ = Clock::now();
+    k_ = 0;
+  }
   Clock::time_point next() {
     if (!paced()) return Clock::now();
     const auto due = start_ + std::chrono::duration_cast<Clock::duration>(
@@ -200,6 +205,9 @@ ReplayReport run_replay(const ReplayOptions& options, const AppConfig& config) {
     if (options.observe) sinks.keep_images = true;
     Pipeline pipeline(config, PipelineMode::kReplay, std::move(global_map), store.get(), voxel_map.get(),
                       std::move(sinks));
+    // First-frame costs are paid on a synthetic frame before the clock of the first real one.
+    pipeline.warm_up(sequence.camera.width, sequence.camera.height);
+    pacer.restart();
     try {
       for (std::size_t index = first; index < last; ++index) {
         if (committed.contains(static_cast<std::uint64_t>(index))) {

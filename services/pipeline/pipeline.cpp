@@ -1,5 +1,6 @@
 #include "services/pipeline/pipeline.hpp"
 
+#include <opencv2/core.hpp>
 #include <readerwriterqueue/readerwriterqueue.h>
 #include <spdlog/spdlog.h>
 
@@ -93,8 +94,8 @@ Pipeline::Pipeline(const AppConfig& config, PipelineMode mode, map::GlobalMap ma
   if (config_.pipeline.sgm_threads > 0) sgm.threads = config_.pipeline.sgm_threads;
 
   // The stage list: a new stage (e.g. pose refinement before merge) is one more entry.
-  stages_.push_back({"sgm", [sgm](FrameWork& w) { sgm_stage(w, sgm); }});
-  stages_.push_back({"extract", [this](FrameWork& w) { extract_stage(w, config_.extraction); }});
+  stages_.push_back({"sgm", [sgm](FrameWork& w) { sgm_stage(w, sgm); }, true});
+  stages_.push_back({"extract", [this](FrameWork& w) { extract_stage(w, config_.extraction); }, true});
   stages_.push_back({"transform", [this](FrameWork& w) {
                        transform_stage(w);
                        if (voxels_) voxel_stage(w, *voxels_, config_.voxel);
@@ -128,6 +129,27 @@ Pipeline::~Pipeline() {
   request_stop();
   for (auto& thread : threads_)
     if (thread.joinable()) thread.join();
+}
+
+void Pipeline::warm_up(int width, int height) {
+  if (width < 1 || height < 1) return;
+  FrameWork work;
+  work.warm_up = true;
+  cv::Mat texture(height, width + 16, CV_8UC3);
+  cv::randu(texture, cv::Scalar::all(0), cv::Scalar::all(256));  // cv::theRNG's fixed seed
+  work.frame.left = texture(cv::Rect(0, 0, width, height)).clone();
+  work.frame.right = texture(cv::Rect(16, 0, width, height)).clone();
+  work.frame.camera.width = width;
+  work.frame.camera.height = height;
+  {
+    const std::lock_guard lock(ingest_mutex_);
+    if (stop_requested_.load()) return;
+    std::lock_guard warm_lock(warm_mutex_);
+    warm_done_ = false;
+    queues_.front()->push(std::make_unique<FrameWork>(std::move(work)));
+  }
+  std::unique_lock lock(warm_mutex_);
+  warm_cv_.wait(lock, [this] { return warm_done_; });
 }
 
 bool Pipeline::submit(FrameWork work) {
@@ -193,6 +215,17 @@ void Pipeline::stage_loop(std::size_t index) {
       out.push(nullptr);  // end marker: everything before it has been passed on
       return;
     }
+    if (item->warm_up) {
+      if (stages_[index].warms) {
+        try {
+          stages_[index].run(*item);
+        } catch (const std::exception& e) {
+          spdlog::debug("pipeline: warm-up frame failed in {}: {}", stages_[index].name, e.what());
+        }
+      }
+      out.push(std::move(item));
+      continue;
+    }
     if (mode_ == PipelineMode::kReplay && failed_.load()) continue;  // drain without work
     try {
       stages_[index].run(*item);
@@ -209,6 +242,12 @@ void Pipeline::publish_loop() {
   for (;;) {
     Queue::Item item = in.pop();
     if (!item) return;
+    if (item->warm_up) {
+      const std::lock_guard lock(warm_mutex_);
+      warm_done_ = true;
+      warm_cv_.notify_all();
+      continue;
+    }
     if (mode_ == PipelineMode::kReplay && failed_.load()) continue;
     if (sinks_.publish) {
       try {

@@ -10,6 +10,7 @@
 /// Threads: SGM runs PipelineConfig::sgm_threads workers, every other stage one thread; only SGM and
 /// extract are heavy, so ~2 threads are busy at once; the rest mostly wait on their queue.
 #include <atomic>
+#include <condition_variable>
 #include <exception>
 #include <functional>
 #include <memory>
@@ -77,6 +78,13 @@ class Pipeline {
   Pipeline(const Pipeline&) = delete;
   Pipeline& operator=(const Pipeline&) = delete;
 
+  /// Runs one synthetic width×height frame (a fixed random texture seen with a 16 px shift)
+  /// through the sgm and extract stages on their own threads and waits for it: the first-frame
+  /// costs (buffers faulted in, OpenCV's colour tables, worker threads) are paid before the
+  /// first real frame, whose latency then is a steady-state one. Not mapped, published or
+  /// counted; a stage error is logged (debug) and not kept. Call before the first submit().
+  void warm_up(int width, int height);
+
   /// Hands one frame to the sgm stage (call from one thread only: the ingest thread). Replay
   /// mode blocks while the queue is full. Returns false (frame not taken) after request_stop()
   /// or once the pipeline failed.
@@ -101,6 +109,7 @@ class Pipeline {
   struct Stage {
     std::string name;
     std::function<void(FrameWork&)> run;
+    bool warms = false;  ///< runs on warm-up frames too
   };
   void stage_loop(std::size_t index);
   void publish_loop();
@@ -122,6 +131,9 @@ class Pipeline {
   std::mutex ingest_mutex_;  ///< serialises submit() with request_stop()'s end marker
   bool finished_ = false;
   std::exception_ptr error_;
+  std::mutex warm_mutex_;
+  std::condition_variable warm_cv_;
+  bool warm_done_ = false;
 
   mutable std::mutex stats_mutex_;
   std::size_t frames_in_ = 0, frames_done_ = 0, frames_failed_ = 0;

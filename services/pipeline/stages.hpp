@@ -47,6 +47,9 @@ struct StageCost {
 /// One frame on its way through the pipeline.
 struct FrameWork {
   std::uint64_t frame_id = 0;
+  /// A synthetic frame of Pipeline::warm_up: run through sgm and extract only, never mapped,
+  /// published or counted.
+  bool warm_up = false;
   StereoFrame frame;   ///< input images, camera, pose (required from the transform stage on)
   StageClock::time_point ingest_time{};  ///< when the frame entered the pipeline (end-to-end start)
   cv::Mat disparity;                     ///< sgm: CV_32F px, NaN = invalid

@@ -99,6 +99,37 @@ TEST_F(PipelineTest, PacedThreadedReplayFeedsFramesAtTheRateAndBuildsTheSameMap)
                   .same_content(io::load_map(io::MapStore(scratch_ / "unpaced.db"))));
 }
 
+TEST_F(PipelineTest, WarmUpRunsSgmAndExtractionWithoutMappingCountingOrPublishing) {
+  const auto sequence = io::open_kitti_odometry(scratch_ / "seq");
+  std::vector<std::uint64_t> published;
+  PipelineSinks sinks;
+  sinks.publish = [&](const FrameWork& work) { published.push_back(work.frame_id); };
+  Pipeline pipeline(config_, PipelineMode::kReplay, map::GlobalMap(config_.map), nullptr, nullptr, sinks);
+  pipeline.warm_up(sequence.camera.width, sequence.camera.height);  // returns once it went through
+  PipelineStats stats = pipeline.stats();
+  EXPECT_EQ(stats.frames_in, 0u);
+  EXPECT_EQ(stats.frames_done, 0u);
+  EXPECT_TRUE(stats.latency.empty());
+  EXPECT_TRUE(published.empty());
+  pipeline.warm_up(0, 0);  // nothing to warm: returns at once
+  ASSERT_TRUE(pipeline.submit(load_stage(sequence, 0)));
+  const map::GlobalMap map = pipeline.finish();
+  EXPECT_EQ(published, (std::vector<std::uint64_t>{0}));
+  // The map holds frame 0 only: the same as a fresh map given frame 0.
+  FrameWork alone = load_stage(sequence, 0);
+  sgm_stage(alone, [&] {
+    SgmConfig sgm = config_.sgm;
+    sgm.threads = config_.pipeline.sgm_threads;
+    return sgm;
+  }());
+  extract_stage(alone, config_.extraction);
+  transform_stage(alone);
+  map::GlobalMap expected(config_.map);
+  merge_stage(alone, expected, false);
+  EXPECT_TRUE(map.same_content(expected));
+  EXPECT_GT(map.cells().size(), 0u);
+}
+
 TEST_F(PipelineTest, ReplayRejectsANegativeRate) {
   ReplayOptions o = options("negative.db", true);
   o.rate_hz = -1.0;
