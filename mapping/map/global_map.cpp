@@ -139,7 +139,7 @@ GlobalMap::GlobalMap(const MapConfig& config)
     throw ConfigError("map.neighbour_gap_m: must be >= 0, got " + std::to_string(config.neighbour_gap_m));
 }
 
-std::vector<std::uint32_t> GlobalMap::cells_near(const Aabb& box) const { return index_.query(box); }
+std::vector<std::uint32_t> GlobalMap::cells_near(const Aabb& box) const { return query_cells(box); }
 
 void GlobalMap::absorb_surface(Surface& into, Surface& absorbed, MergeReport& report) {
   for (std::uint32_t id : absorbed.cells) {
@@ -220,8 +220,9 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
     SpatialIndex frame_index(config_.index_cell_m);
     for (std::size_t k = 0; k < fresh.size(); ++k)
       frame_index.insert(static_cast<std::uint32_t>(k), bounds_of(fresh[k]->vertices_m));
+    const auto box_of = [&](std::uint32_t j) { return bounds_of(fresh[j]->vertices_m); };
     for (std::size_t k = 0; k < fresh.size(); ++k)
-      for (std::uint32_t j : frame_index.query(bounds_of(fresh[k]->vertices_m).inflated(gap))) {
+      for (std::uint32_t j : frame_index.query(bounds_of(fresh[k]->vertices_m).inflated(gap), box_of)) {
         if (j <= k) continue;
         if (polygon_gap_m(fresh[k]->plane, fresh[k]->vertices_m, fresh[j]->plane,
                           fresh[j]->vertices_m) > gap)
@@ -253,7 +254,7 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
     const double max_surface_sigma =
         config_.redundant_precision_ratio *
         std::max<double>(cell.depth_sigma_m, config_.residual_scale_m);
-    for (std::uint32_t id : index_.query(box.inflated(reach))) {
+    for (std::uint32_t id : query_cells(box.inflated(reach))) {
       const MapCell& old = cells_.at(id);
       if (max_age > 0 && old.frame_id + max_age <= frame_id &&
           surfaces_.at(old.surface).observations == 1)

@@ -170,6 +170,10 @@ class GlobalMap {
   Eigen::Vector3d up() const { return up_; }
 
  private:
+  /// Stored cells whose bounds overlap `box` (the index's buckets, then each cell's vertex bounds).
+  std::vector<std::uint32_t> query_cells(const Aabb& box) const {
+    return index_.query(box, [this](std::uint32_t id) { return bounds_of(cells_.at(id).vertices_m); });
+  }
   /// Folds `absorbed` into `into` (cells relabelled, footprint re-tiled in into's basis).
   void absorb_surface(Surface& into, Surface& absorbed, MergeReport& report);
 

@@ -31,7 +31,7 @@ std::optional<CellDistance> GlobalMap::nearest_cell(const Eigen::Vector3d& point
     Aabb box;
     box.extend(point);
     std::optional<CellDistance> best;
-    for (std::uint32_t id : index_.query(box.inflated(radius))) {
+    for (std::uint32_t id : query_cells(box.inflated(radius))) {
       const MapCell& c = cells_.at(id);
       const double d = distance_to_polygon(point, c.plane, c.vertices_m);
       if (d <= max_distance_m && (!best || d < best->distance_m)) best = CellDistance{id, d};
@@ -47,7 +47,7 @@ std::optional<GroundHit> GlobalMap::ground_under(const Eigen::Vector3d& point,
   column.extend(point);
   column.extend(point - max_drop_m * up_);
   std::set<std::uint32_t> candidates;
-  for (std::uint32_t id : index_.query(column.inflated(1e-6))) candidates.insert(cells_.at(id).surface);
+  for (std::uint32_t id : query_cells(column.inflated(1e-6))) candidates.insert(cells_.at(id).surface);
   const double min_cos = std::cos(config_.max_ground_tilt_deg * std::numbers::pi / 180.0);
   std::optional<GroundHit> best;
   for (std::uint32_t sid : candidates) {
@@ -101,7 +101,7 @@ HeightMap GlobalMap::height_map(const Eigen::Vector2d& origin_ab, int cols, int 
     float& cell = out.height_m.at<float>(row, col);
     if (std::isnan(cell) || height > cell) cell = static_cast<float>(height);
   };
-  for (std::uint32_t id : index_.query(region)) {
+  for (std::uint32_t id : query_cells(region)) {
     const MapCell& c = cells_.at(id);
     // The polygon in grid coordinates (a, b), and its extent in grid squares.
     Polygon2 poly;

@@ -49,27 +49,27 @@ void SpatialIndex::insert(std::uint32_t id, const Aabb& box) {
   if (box.min.minCoeff() < -limit || box.max.maxCoeff() > limit)
     throw InputError("spatial index: cell " + std::to_string(id) + " lies outside ±" +
                      std::to_string(limit) + " m, the indexable range");
-  boxes_[id] = box;
+  ++size_;
   for_each_bucket(box, [&](std::uint64_t key) { buckets_[key].push_back(id); });
 }
 
 void SpatialIndex::remove(std::uint32_t id, const Aabb& box) {
-  if (boxes_.erase(id) == 0) return;
+  bool found = false;
   for_each_bucket(box, [&](std::uint64_t key) {
     auto it = buckets_.find(key);
     if (it == buckets_.end()) return;
-    std::erase(it->second, id);
+    found = std::erase(it->second, id) > 0 || found;
     if (it->second.empty()) buckets_.erase(it);
   });
+  if (found) --size_;
 }
 
-std::vector<std::uint32_t> SpatialIndex::query(const Aabb& box) const {
+std::vector<std::uint32_t> SpatialIndex::candidates(const Aabb& box) const {
   std::vector<std::uint32_t> out;
   for_each_bucket(box, [&](std::uint64_t key) {
     auto it = buckets_.find(key);
     if (it == buckets_.end()) return;
-    for (std::uint32_t id : it->second)
-      if (boxes_.at(id).overlaps(box)) out.push_back(id);
+    out.insert(out.end(), it->second.begin(), it->second.end());
   });
   std::sort(out.begin(), out.end());
   out.erase(std::unique(out.begin(), out.end()), out.end());
@@ -78,11 +78,11 @@ std::vector<std::uint32_t> SpatialIndex::query(const Aabb& box) const {
 
 void SpatialIndex::clear() {
   buckets_.clear();
-  boxes_.clear();
+  size_ = 0;
 }
 
 std::size_t SpatialIndex::bytes() const {
-  std::size_t total = hash_map_bytes(buckets_) + hash_map_bytes(boxes_);
+  std::size_t total = hash_map_bytes(buckets_);
   for (const auto& [key, ids] : buckets_) total += ids.capacity() * sizeof(std::uint32_t);
   return total;
 }

@@ -1,7 +1,9 @@
 #pragma once
 /// Spatial index of the global map: a hashed 3D grid of cell bounds. Answers "ids whose bounds
 /// overlap this box" touching only the grid buckets the box covers, so per-frame work depends on
-/// the neighbourhood of the new cells, not on the size of the map.
+/// the neighbourhood of the new cells, not on the size of the map. The index keeps only the ids
+/// in their buckets; the exact overlap test asks the owner for an id's box (the map derives it
+/// from the cell's vertices), so the boxes are not stored twice.
 #include <cstdint>
 #include <unordered_map>
 #include <vector>
@@ -20,14 +22,23 @@ class SpatialIndex {
   void insert(std::uint32_t id, const Aabb& box);
   /// Removes `id` (registered with the same box).
   void remove(std::uint32_t id, const Aabb& box);
-  /// Ids registered in the buckets `box` touches whose stored box overlaps `box`; sorted, unique.
-  std::vector<std::uint32_t> query(const Aabb& box) const;
+  /// Ids registered in the buckets `box` touches: sorted, unique, a superset of the ids whose
+  /// box overlaps `box`.
+  std::vector<std::uint32_t> candidates(const Aabb& box) const;
+  /// Those of candidates(box) whose box, box_of(id) (the box `id` was registered with), overlaps
+  /// `box`; sorted, unique.
+  template <class BoxOf>
+  std::vector<std::uint32_t> query(const Aabb& box, BoxOf&& box_of) const {
+    std::vector<std::uint32_t> ids = candidates(box);
+    std::erase_if(ids, [&](std::uint32_t id) { return !box_of(id).overlaps(box); });
+    return ids;
+  }
 
-  std::size_t size() const { return boxes_.size(); }
+  std::size_t size() const { return size_; }
   /// Half-width of the indexable cube: bucket_m · (2²⁰ − 1) (2 m buckets: ±2097 km).
   double max_coordinate_m() const { return bucket_m_ * static_cast<double>((1 << 20) - 1); }
   void clear();
-  /// Heap bytes of the buckets, their id vectors and the stored boxes (requested sizes).
+  /// Heap bytes of the buckets and their id vectors (requested sizes).
   std::size_t bytes() const;
 
  private:
@@ -36,7 +47,7 @@ class SpatialIndex {
 
   double bucket_m_;
   std::unordered_map<std::uint64_t, std::vector<std::uint32_t>> buckets_;
-  std::unordered_map<std::uint32_t, Aabb> boxes_;
+  std::size_t size_ = 0;  ///< ids registered
 };
 
 }  // namespace planecell::map
