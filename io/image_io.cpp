@@ -46,7 +46,8 @@ bool has_supported_signature(const std::filesystem::path& path) {
   return got >= 3 && head[0] == 'P' && head[1] >= '1' && head[1] <= '6' && std::isspace(head[2]);
 }
 
-/// Width and height from a PNM header ("P5 <w> <h> …", '#' comments allowed), if well formed.
+/// Width and height from a PNM header ("P5 <w> <h> …"), if well formed, read the way OpenCV's
+/// PNM decoder reads them: white space, or '#' comments that end at '\n' or '\r'.
 std::optional<std::pair<std::int64_t, std::int64_t>> peek_pnm_size(std::istream& in) {
   std::int64_t values[2] = {0, 0};
   in.clear();
@@ -55,7 +56,7 @@ std::optional<std::pair<std::int64_t, std::int64_t>> peek_pnm_size(std::istream&
     int c = in.get();
     while (c != EOF && (std::isspace(c) || c == '#')) {
       if (c == '#')
-        while (c != EOF && c != '\n') c = in.get();
+        while (c != EOF && c != '\n' && c != '\r') c = in.get();
       c = in.get();
     }
     if (c == EOF || !std::isdigit(c)) return std::nullopt;
@@ -77,8 +78,12 @@ cv::Mat read_with_flags(const std::filesystem::path& path, int flags, std::int64
   if (!has_supported_signature(path))
     throw InputError("image '" + path.string() +
                      "': not a PNG, JPEG or PNM file (unrecognised signature)");
-  if (const auto size = peek_image_size(path))
-    check_pixels(path, size->first, size->second, max_pixels);
+  // The size comes from the header before anything is decoded; a header it cannot be read from
+  // is refused rather than left to a decoder that might read a different, huge size from it.
+  const auto size = peek_image_size(path);
+  if (!size)
+    throw InputError("image '" + path.string() + "': cannot read the image size from its header");
+  check_pixels(path, size->first, size->second, max_pixels);
   cv::Mat image;
   try {
     image = cv::imread(path.string(), flags);

@@ -240,6 +240,31 @@ TEST(FuzzRegression, PnmMagicWithoutWhiteSpaceAndADicomTag) {
   EXPECT_EQ(read_image_unchanged(dir / "plain.pgm").size(), cv::Size(16, 8));
 }
 
+/// fuzz_kitti_disparity_png oom-b5ee2a71 (out-of-memory): an ASCII PPM header whose comments end
+/// at '\r'. OpenCV ends a comment at '\n' or '\r' and read 399999 × 1930 px; the size peek ended
+/// them at '\n' only, found no height and let imread allocate 2.3 GB. The peek now reads comments
+/// like OpenCV, and a header it cannot read is refused before decoding.
+TEST(FuzzRegression, PnmCommentsEndingAtCarriageReturnDoNotHideAHugeSize) {
+  test::ScratchDir dir;
+  const std::string finding =
+      "P3\t399999\n##9P9\n##9P3\r#3\t3\r#\r\n##\r#3020\r#\r\n##\r1930\n#03\r#3\t3\r#\r\n##\r"
+      "#3020\r#\r\n##\r1930\n#02";
+  write_text(dir / "finding.png", finding);
+  const std::string message = input_error_of([&] { (void)read_kitti_disparity(dir / "finding.png"); });
+  EXPECT_CONTAINS(message, "399999");
+  EXPECT_CONTAINS(message, "exceeds the limit");
+  auto peek = [&](const std::string& header) {
+    write_text(dir / "h.pgm", header);
+    return peek_image_size(dir / "h.pgm");
+  };
+  EXPECT_EQ(peek("P5 # comment\r16\r# another\r8\r255\r"), (std::pair<std::int64_t, std::int64_t>{16, 8}));
+  EXPECT_EQ(peek("P5\n# comment\n16 8\n255\n"), (std::pair<std::int64_t, std::int64_t>{16, 8}));
+  // No height at all: refused before any decoder sees it.
+  write_text(dir / "headless.pgm", "P5\n16\n# no height\n");
+  EXPECT_CONTAINS(input_error_of([&] { (void)read_image_unchanged(dir / "headless.pgm"); }),
+                  "cannot read the image size");
+}
+
 /// fuzz_lcm crash-f0f7ba7d (ASan out-of-memory): a map_stats_t whose queue count claims ~10⁹
 /// names made the generated decoder resize a vector<string> to 31 GB. decode_map_stats now walks
 /// the whole layout (every count and string length against the bytes left) before decoding.
