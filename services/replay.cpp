@@ -149,6 +149,7 @@ ReplayReport run_replay(const ReplayOptions& options, const AppConfig& config) {
     report.redundant_cells += work.merge.redundant_cells;
     report.replaced_cells += work.merge.replaced_cells;
     report.pruned_surfaces += work.merge.pruned_surfaces.size();
+    report.merge_ms.push_back(static_cast<float>(work.merge.merge_ms));
     report.surface_merges += work.merge.surface_merges.size();
     plane_fraction_sum += work.cells.plane_fraction;
     if (options.memory_sample_every > 0 && report.frames % options.memory_sample_every == 0)
@@ -297,6 +298,7 @@ nlohmann::json to_json(const ReplayReport& r) {
                    {"rss_mb", static_cast<double>(m.rss_bytes) / kMb},
                    {"map_mb", static_cast<double>(m.map_bytes) / kMb}});
   out["rss_mb"] = rss;
+  out["merge_ms_per_frame"] = r.merge_ms;
   out["peak_rss_mb"] = static_cast<double>(r.peak_rss_bytes) / kMb;
   if (r.merge_metrics) {
     const auto& m = *r.merge_metrics;
@@ -338,6 +340,17 @@ std::string summary_text(const ReplayReport& r) {
         << 100.0 * m.area_in_dominant_label << " % in its dominant label), " << 100.0 * m.cross_merged_cells
         << " % of cells merged across GT surfaces (" << m.gt_surfaces << " GT surfaces -> " << m.labels
         << " labels, " << m.cells << " cells, " << m.mixed_cells << " mixed cells left out)\n";
+  }
+  if (r.merge_ms.size() >= 20) {
+    // Median merge time of the first and the last tenth of the frames: flat as the map grows?
+    auto median_of = [](std::vector<float> v) {
+      std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
+      return v[v.size() / 2];
+    };
+    const auto tenth = static_cast<std::ptrdiff_t>(r.merge_ms.size() / 10);
+    out << "  merge time as the map grows: median " << median_of({r.merge_ms.begin(), r.merge_ms.begin() + tenth})
+        << " ms over the first tenth of the frames, " << median_of({r.merge_ms.end() - tenth, r.merge_ms.end()})
+        << " ms over the last tenth\n";
   }
   if (r.voxel)
     out << "  voxel baseline (" << r.voxel_mode << "): " << r.voxel_leaves << " voxels, "

@@ -88,6 +88,9 @@ struct ReplayReport {
   std::vector<std::pair<std::string, StageCostSummary>> stage_cost;
   /// RSS before the first frame, every memory_sample_every frames and after the last one.
   std::vector<MemorySample> memory;
+  /// Wall time of GlobalMap::integrate per frame of this run, in frame order (ms): the merge
+  /// time as the map grows.
+  std::vector<float> merge_ms;
   std::size_t peak_rss_bytes = 0;  ///< max(getrusage ru_maxrss at the end, every RSS sample)
   double rate_hz = 0.0;            ///< input pacing (0 = as fast as possible)
   bool threaded = false;

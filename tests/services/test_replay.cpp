@@ -42,6 +42,15 @@ TEST_F(ReplayTest, MapsEveryFrameAndStoresThem) {
   EXPECT_LE(report.merge_metrics->area_in_dominant_label, 1.0);
   EXPECT_LE(report.merge_metrics->area_one_label, report.merge_metrics->area_in_dominant_label);
   ASSERT_EQ(report.stage_latency.size(), 6u);  // load, sgm, extract, transform, merge, store
+  // One integrate() time per frame, each inside its frame's merge stage.
+  ASSERT_EQ(report.merge_ms.size(), 4u);
+  double merge_stage_max_ms = 0.0;
+  for (const auto& [stage, summary] : report.stage_latency)
+    if (stage == "merge") merge_stage_max_ms = summary.max_ms;
+  for (float ms : report.merge_ms) {
+    EXPECT_GT(ms, 0.0f);
+    EXPECT_LE(ms, merge_stage_max_ms + 1e-3);
+  }
   const io::MapStore store(scratch_ / "map.db");
   EXPECT_EQ(store.frame_count(), 4u);
   EXPECT_EQ(io::load_map(store).cells().size(), report.cells_in_map);
