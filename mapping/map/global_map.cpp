@@ -254,18 +254,22 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
     const double max_surface_sigma =
         config_.redundant_precision_ratio *
         std::max<double>(cell.depth_sigma_m, config_.residual_scale_m);
-    for (std::uint32_t id : query_cells(box.inflated(reach))) {
+    // The index's candidates, filtered here so that each stored cell's bounds are computed once.
+    const Aabb reach_box = box.inflated(reach);
+    for (std::uint32_t id : index_.candidates(reach_box)) {
       const MapCell& old = cells_.at(id);
-      if (max_age > 0 && old.frame_id + max_age <= frame_id &&
-          surfaces_.at(old.surface).observations == 1)
+      const Aabb old_box = bounds_of(old.vertices_m);
+      if (!old_box.overlaps(reach_box)) continue;
+      const Surface& surface = surfaces_.at(old.surface);
+      if (max_age > 0 && old.frame_id + max_age <= frame_id && surface.observations == 1)
         unconfirmed.insert(old.surface);
-      const bool neighbour = near_box.overlaps(bounds_of(old.vertices_m)) &&
+      const bool neighbour = near_box.overlaps(old_box) &&
                              polygons_within_m(cell.plane, cell.vertices_m, old.plane, old.vertices_m, gap);
       if (neighbour) {
         auto [it, inserted] = unit_of_map_cell.try_emplace(id, static_cast<std::uint32_t>(units.size()));
         if (inserted) {
           units.push_back({old.surface, &old.plane, old.vertices_m, nullptr, polygon_area_m2(old.vertices_m)});
-          if (!labels.contains(old.surface)) labels.emplace(old.surface, state_of_surface(surfaces_.at(old.surface)));
+          if (!labels.contains(old.surface)) labels.emplace(old.surface, state_of_surface(surface));
         }
         edges.push_back({static_cast<std::uint32_t>(k), it->second,
                          std::sqrt(std::min(fresh_area[k], units[it->second].area_m2))});
@@ -290,7 +294,6 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
       auto& candidates = covering_surfaces[k];
       if (std::find(candidates.begin(), candidates.end(), old.surface) != candidates.end())
         continue;
-      const Surface& surface = surfaces_.at(old.surface);
       if (!surface.footprint.empty() &&
           effective_sigma_m(surface.moments, surface.observed_area_m2) <= max_surface_sigma &&
           nearly_coplanar(surface.plane, cell.plane, cell.vertices_m, angle_deg, surface_tol))
