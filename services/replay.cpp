@@ -149,7 +149,7 @@ ReplayReport run_replay(const ReplayOptions& options, const AppConfig& config) {
     report.redundant_cells += work.merge.redundant_cells;
     report.replaced_cells += work.merge.replaced_cells;
     report.pruned_surfaces += work.merge.pruned_surfaces.size();
-    report.merge_ms.push_back(static_cast<float>(work.merge.merge_ms));
+    report.merge_ms.push_back(work.merge.merge_ms);
     report.surface_merges += work.merge.surface_merges.size();
     plane_fraction_sum += work.cells.plane_fraction;
     if (options.memory_sample_every > 0 && report.frames % options.memory_sample_every == 0)
@@ -343,14 +343,11 @@ std::string summary_text(const ReplayReport& r) {
   }
   if (r.merge_ms.size() >= 20) {
     // Median merge time of the first and the last tenth of the frames: flat as the map grows?
-    auto median_of = [](std::vector<float> v) {
-      std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
-      return v[v.size() / 2];
-    };
     const auto tenth = static_cast<std::ptrdiff_t>(r.merge_ms.size() / 10);
-    out << "  merge time as the map grows: median " << median_of({r.merge_ms.begin(), r.merge_ms.begin() + tenth})
-        << " ms over the first tenth of the frames, " << median_of({r.merge_ms.end() - tenth, r.merge_ms.end()})
-        << " ms over the last tenth\n";
+    out << "  merge time as the map grows: median "
+        << summarise({r.merge_ms.begin(), r.merge_ms.begin() + tenth}).p50_ms
+        << " ms over the first tenth of the frames, "
+        << summarise({r.merge_ms.end() - tenth, r.merge_ms.end()}).p50_ms << " ms over the last tenth\n";
   }
   if (r.voxel)
     out << "  voxel baseline (" << r.voxel_mode << "): " << r.voxel_leaves << " voxels, "

@@ -90,7 +90,7 @@ struct ReplayReport {
   std::vector<MemorySample> memory;
   /// Wall time of GlobalMap::integrate per frame of this run, in frame order (ms): the merge
   /// time as the map grows.
-  std::vector<float> merge_ms;
+  std::vector<double> merge_ms;
   std::size_t peak_rss_bytes = 0;  ///< max(getrusage ru_maxrss at the end, every RSS sample)
   double rate_hz = 0.0;            ///< input pacing (0 = as fast as possible)
   bool threaded = false;

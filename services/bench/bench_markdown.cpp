@@ -55,11 +55,10 @@ constexpr double kPaperMergeS = 0.1;       ///< CRF aggregation per frame
 /// Table 1, planecell on SGBM disparity (KITTI stereo): % of GT pixels within 10/20/50/100 cm.
 constexpr double kPaperTable1Sgbm[] = {33.49, 50.23, 72.91, 80.84};
 
-/// p50 of a replay stage, NaN when the stage did not run.
+/// p50 of a stage, NaN when the stage did not run.
 double stage_p50(const BenchReport& r, const std::string& stage) {
-  for (const auto& [name, s] : r.replay.stage_latency)
-    if (name == stage) return s.p50_ms;
-  return std::nan("");
+  const LatencySummary* s = find_stage(r, stage);
+  return s ? s->p50_ms : std::nan("");
 }
 
 MemorySample final_memory(const BenchReport& r) {

@@ -61,11 +61,16 @@ std::vector<std::string> representation_stages(std::size_t representation) {
   }
 }
 
-double stage_mean_ms(const BenchReport& report, const std::string& stage) {
+const LatencySummary* find_stage(const BenchReport& report, const std::string& stage) {
   for (const auto* log : {&report.replay.stage_latency, &report.bench_latency})
     for (const auto& [name, s] : *log)
-      if (name == stage && s.count > 0) return s.mean_ms;
-  return kNaN;
+      if (name == stage && s.count > 0) return &s;
+  return nullptr;
+}
+
+double stage_mean_ms(const BenchReport& report, const std::string& stage) {
+  const LatencySummary* s = find_stage(report, stage);
+  return s ? s->mean_ms : kNaN;
 }
 
 double estimated_frames_per_s(const BenchReport& report, std::size_t representation) {

@@ -89,6 +89,8 @@ double estimated_frames_per_s(const BenchReport& report, std::size_t representat
 /// Names of the stages a representation needs (as above).
 std::vector<std::string> representation_stages(std::size_t representation);
 
+/// Latency summary of a stage from the replay's or the bench's log; nullptr when absent.
+const LatencySummary* find_stage(const BenchReport& report, const std::string& stage);
 /// Mean latency (ms) of a stage from the replay's or the bench's log; NaN when absent.
 double stage_mean_ms(const BenchReport& report, const std::string& stage);
 

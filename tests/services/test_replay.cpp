@@ -47,8 +47,8 @@ TEST_F(ReplayTest, MapsEveryFrameAndStoresThem) {
   double merge_stage_max_ms = 0.0;
   for (const auto& [stage, summary] : report.stage_latency)
     if (stage == "merge") merge_stage_max_ms = summary.max_ms;
-  for (float ms : report.merge_ms) {
-    EXPECT_GT(ms, 0.0f);
+  for (double ms : report.merge_ms) {
+    EXPECT_GT(ms, 0.0);
     EXPECT_LE(ms, merge_stage_max_ms + 1e-3);
   }
   const io::MapStore store(scratch_ / "map.db");
