@@ -10,7 +10,6 @@
 #include "mapping/refine/surface_association.hpp"
 
 namespace planecell::refine {
-extern std::uint64_t g_current_frame;
 namespace {
 
 constexpr double kDegToRad = std::numbers::pi / 180.0;
@@ -101,7 +100,6 @@ PoseRefinement refine_pose(std::span<const Planecell> cells_cam, const Pose& T_w
   out.refined = T_world_cam_input;
   if (!config.enabled) return out;
 
-  g_current_frame = cells_cam.empty() ? 0 : cells_cam.front().frame_id;
   // The surface planes around the frame, once: the map does not change while refining.
   const SurfacePlanes surfaces = surface_planes_near(
       map, association_region(cells_cam, T_world_cam_input, config, config.max_correction_m), config);

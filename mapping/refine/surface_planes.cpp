@@ -4,11 +4,8 @@
 #include <algorithm>
 #include <cmath>
 #include <vector>
-#include <cstdlib>
-#include <string>
 
 namespace planecell::refine {
-std::uint64_t g_current_frame = 0;
 
 double SurfacePlane::sigma_at(const Eigen::Vector3d& x) const {
   const Eigen::Vector3d d = x - mean;
@@ -33,12 +30,6 @@ SurfacePlanes surface_planes_near(const map::GlobalMap& map, const map::Aabb& re
   for (const auto& [surface_id, members] : by_surface) {
     const map::Surface* surface = map.surface(surface_id);
     if (surface == nullptr) continue;
-    if (const char* age = std::getenv("MINAGE")) {
-      std::uint64_t oldest = ~0ull, newest = 0;
-      for (const std::uint32_t id : surface->cells) { oldest = std::min<std::uint64_t>(oldest, map.cell(id)->frame_id); newest = std::max<std::uint64_t>(newest, map.cell(id)->frame_id); }
-      if (oldest + std::stoul(age) > newest + 1) {} else if (std::getenv("MINAGE_SPAN")) continue;
-      if (!std::getenv("MINAGE_SPAN") && oldest + std::stoul(age) > g_current_frame) continue;
-    }
     SurfacePlane s;
     s.plane = surface->plane;
     double weight = 0.0;
@@ -75,6 +66,13 @@ SurfacePlanes surface_planes_near(const map::GlobalMap& map, const map::Aabb& re
     s.u = basis * eigen.eigenvectors().col(0);
     s.v = basis * eigen.eigenvectors().col(1);
     s.inverse_scatter = spread.cwiseInverse().asDiagonal();
+    // The map's plane also holds the observations fused into the surface without being stored:
+    // each carries about a stored cell's information, so the information scales by
+    // observations / stored cells (≥ 1).
+    const double fused_factor = std::max(
+        1.0, static_cast<double>(surface->observations) / static_cast<double>(std::max<std::size_t>(surface->cells.size(), 1)));
+    s.weight *= fused_factor;
+    s.inverse_scatter /= fused_factor;
     for (const std::uint32_t id : on_plane) out.on_plane_cells.emplace(id, surface_id);
     out.planes.emplace(surface_id, s);
   }

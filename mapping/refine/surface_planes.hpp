@@ -20,7 +20,9 @@ namespace planecell::refine {
 /// (the regression's prediction variance)
 ///   σ_S²(X) = 1/W + aᵀ M⁻¹ a,   a = Pᵀ (X − p̄):
 /// offset noise plus tilt noise times the lever from the members' centre. The map's plane also
-/// holds the fused re-observations that are not stored, so σ_S is an upper bound.
+/// holds the re-observations fused into the surface without being stored; each carries about a
+/// stored cell's information, so W is multiplied and M⁻¹ divided by f = max(1, observations /
+/// stored cells) (Surface::observations counts both).
 struct SurfacePlane {
   Plane3 plane;  ///< the map's surface plane (world)
   Eigen::Vector3d mean = Eigen::Vector3d::Zero();

@@ -10,6 +10,7 @@
 #include "mapping/map/global_map.hpp"
 #include "mapping/map/pose_transform.hpp"
 #include "mapping/refine/pose_refinement.hpp"
+#include "mapping/refine/surface_planes.hpp"
 #include "support/planecell_fixtures.hpp"
 
 namespace planecell::refine {
@@ -114,6 +115,39 @@ TEST(PoseRefinement, RecoversTheTruePoseFromAPerturbedOne) {
   EXPECT_LT(r.final_cost, 1e-3 * r.initial_cost);
   // The reported correction is what takes the input to the refined pose.
   EXPECT_TRUE(apply_correction(kPerturbed, r.correction).isApprox(r.refined, 1e-9));
+}
+
+TEST(SurfacePlanes, FusedReObservationsCountAsInformationOfTheSurfacePlane) {
+  // The same road seen twice from the same pose: the second view is fused into the surfaces, not
+  // stored, so the stored cells are the same but every surface holds two observations. The plane's
+  // information W doubles and M⁻¹ halves, so σ_S(X)² = 1/W + aᵀM⁻¹a halves at every X.
+  MapConfig map_config;
+  map_config.max_range_m = 40.0;
+  map::GlobalMap once(map_config), twice(map_config);
+  const auto cells = street_cells(0.0f, true);
+  once.integrate(0, Pose::Identity(), cells);
+  twice.integrate(0, Pose::Identity(), cells);
+  twice.integrate(1, Pose::Identity(), cells);
+  ASSERT_EQ(twice.cells().size(), once.cells().size());
+  map::Aabb region;
+  region.extend(Eigen::Vector3d(-6, 0, 2));
+  region.extend(Eigen::Vector3d(6, 3, 21));
+  const RefineConfig config = enabled_config();
+  const SurfacePlanes a = surface_planes_near(once, region, config);
+  const SurfacePlanes b = surface_planes_near(twice, region, config);
+  ASSERT_FALSE(a.planes.empty());
+  ASSERT_EQ(a.planes.size(), b.planes.size());
+  for (const auto& [id, plane] : a.planes) {
+    ASSERT_TRUE(b.planes.contains(id));
+    const map::Surface* s = twice.surface(id);
+    ASSERT_NE(s, nullptr);
+    const double factor = static_cast<double>(s->observations) / static_cast<double>(s->cells.size());
+    ASSERT_NEAR(factor, 2.0, 1e-12);
+    for (const Eigen::Vector3d x : {plane.mean, Eigen::Vector3d(plane.mean + 3.0 * plane.u + 1.0 * plane.v)}) {
+      const double single = plane.sigma_at(x), fused = b.planes.at(id).sigma_at(x);
+      EXPECT_NEAR(fused * fused, single * single / 2.0, 1e-9 * single * single) << "surface " << id;
+    }
+  }
 }
 
 TEST(PoseRefinement, ExactPoseIsNotMadeWorse) {
