@@ -35,6 +35,7 @@ int main(int argc, char** argv) {
   add_disparity_command(app, context);
   add_eval_stereo_command(app, context);
   add_synth_command(app, context);
+  add_import_euroc_command(app, context);
   add_info_command(app, context);
   add_extract_command(app, context);
   add_replay_command(app, context);

@@ -24,7 +24,8 @@ nlohmann::json rpe_json(const eval::RpeResult& r) {
   return {{"pairs", r.pairs},
           {"translation_rmse_m", r.translation_rmse_m},
           {"translation_percent", r.translation_percent},
-          {"rotation_deg_per_m", r.rotation_deg_per_m}};
+          {"rotation_deg_per_m", r.rotation_deg_per_m},
+          {"rotation_rmse_deg", r.rotation_rmse_deg}};
 }
 
 constexpr double kRadToDeg = 180.0 / std::numbers::pi;
@@ -135,7 +136,9 @@ std::string summary_text(const RefineSummary& s) {
     out << "  trajectory vs ground truth: ATE input " << t.input_ate.rmse_m << " m, refined "
         << t.refined_ate.rmse_m << " m; RPE input " << t.input_rpe.translation_percent << " % / "
         << t.input_rpe.rotation_deg_per_m << " deg/m, refined " << t.refined_rpe.translation_percent
-        << " % / " << t.refined_rpe.rotation_deg_per_m << " deg/m\n";
+        << " % / " << t.refined_rpe.rotation_deg_per_m << " deg/m; per frame input "
+        << t.input_rpe.translation_rmse_m << " m / " << t.input_rpe.rotation_rmse_deg << " deg, refined "
+        << t.refined_rpe.translation_rmse_m << " m / " << t.refined_rpe.rotation_rmse_deg << " deg\n";
   }
   return out.str();
 }

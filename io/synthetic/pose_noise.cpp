@@ -4,6 +4,7 @@
 #include <numbers>
 #include <random>
 #include <sstream>
+#include <vector>
 
 #include "core/error.hpp"
 
@@ -34,10 +35,17 @@ Eigen::Vector3d biased_direction(const Eigen::Vector3d& bias, std::mt19937_64& r
 PoseDrift parse_pose_drift(const std::string& text) {
   const auto fail = [&]() -> PoseDrift {
     throw ConfigError("--pose-noise '" + text +
-                      "': expected TRANS_PER_M,ROT_DEG_PER_M (two non-negative numbers, e.g. 0.01,0.1)");
+                      "': expected TRANS_PER_M,ROT_DEG_PER_M[,TRANS_PER_STEP_M,ROT_DEG_PER_STEP] (two or four "
+                      "non-negative numbers, e.g. 0.01,0.1 or 0.01,0.1,0.002,0.02)");
   };
-  const auto comma = text.find(',');
-  if (comma == std::string::npos) return fail();
+  std::vector<std::string> parts;
+  for (std::size_t begin = 0;;) {
+    const auto comma = text.find(',', begin);
+    parts.push_back(text.substr(begin, comma == std::string::npos ? std::string::npos : comma - begin));
+    if (comma == std::string::npos) break;
+    begin = comma + 1;
+  }
+  if (parts.size() != 2 && parts.size() != 4) return fail();
   PoseDrift drift;
   const auto parse = [&](const std::string& part, double& value) {
     std::size_t used = 0;
@@ -48,14 +56,19 @@ PoseDrift parse_pose_drift(const std::string& text) {
     }
     if (part.empty() || used != part.size() || !std::isfinite(value) || value < 0.0) fail();
   };
-  parse(text.substr(0, comma), drift.translation_per_m);
-  parse(text.substr(comma + 1), drift.rotation_deg_per_m);
+  parse(parts[0], drift.translation_per_m);
+  parse(parts[1], drift.rotation_deg_per_m);
+  if (parts.size() == 4) {
+    parse(parts[2], drift.translation_per_step_m);
+    parse(parts[3], drift.rotation_deg_per_step);
+  }
   return drift;
 }
 
 std::vector<Pose> add_odometry_drift(std::span<const Pose> ground_truth, const PoseDrift& drift,
                                      std::uint64_t seed) {
-  if (!(drift.translation_per_m >= 0.0) || !(drift.rotation_deg_per_m >= 0.0))
+  if (!(drift.translation_per_m >= 0.0) || !(drift.rotation_deg_per_m >= 0.0) ||
+      !(drift.translation_per_step_m >= 0.0) || !(drift.rotation_deg_per_step >= 0.0))
     throw ConfigError("pose drift: rates must be non-negative (got " +
                       std::to_string(drift.translation_per_m) + " m/m, " +
                       std::to_string(drift.rotation_deg_per_m) + " deg/m)");
@@ -76,9 +89,11 @@ std::vector<Pose> add_odometry_drift(std::span<const Pose> ground_truth, const P
     const Eigen::Vector3d a = biased_direction(rotation_bias, rng);
     Pose error = Pose::Identity();
     error.linear() =
-        Eigen::AngleAxisd(drift.rotation_deg_per_m * length_m * std::numbers::pi / 180.0, a)
+        Eigen::AngleAxisd((drift.rotation_deg_per_m * length_m + drift.rotation_deg_per_step) *
+                              std::numbers::pi / 180.0,
+                          a)
             .toRotationMatrix();
-    error.translation() = drift.translation_per_m * length_m * b;
+    error.translation() = (drift.translation_per_m * length_m + drift.translation_per_step_m) * b;
     Pose next = noisy.back() * step * error;
     // Re-orthonormalise against round-off accumulated over long sequences.
     next.linear() = Eigen::Quaterniond(next.linear()).normalized().toRotationMatrix();

@@ -10,6 +10,7 @@ void add_export_command(CLI::App& app, CommandContext& context);
 void add_disparity_command(CLI::App& app, CommandContext& context);
 void add_eval_stereo_command(CLI::App& app, CommandContext& context);
 void add_synth_command(CLI::App& app, CommandContext& context);
+void add_import_euroc_command(CLI::App& app, CommandContext& context);
 void add_info_command(CLI::App& app, CommandContext& context);
 void add_extract_command(CLI::App& app, CommandContext& context);
 void add_run_command(CLI::App& app, CommandContext& context);

@@ -48,9 +48,11 @@ void add_synth_command(CLI::App& app, CommandContext& context) {
                     "Drive around a closed block twice (the second lap re-observes the first)");
   command->add_option("--noise", options->noise, "Sensor noise sigma in grey levels (0 = none)");
   command->add_option("--pose-noise", options->pose_noise,
-                      "TRANS_PER_M,ROT_DEG_PER_M: also write poses_noisy.txt (KITTI format, in the\n"
-                      "output folder) with seeded random-walk odometry drift, e.g. 0.01,0.1 = 1 % and\n"
-                      "0.1 deg per metre driven; replay it with `replay --poses OUT/poses_noisy.txt`");
+                      "TRANS_PER_M,ROT_DEG_PER_M[,TRANS_PER_STEP_M,ROT_DEG_PER_STEP]: also write\n"
+                      "poses_noisy.txt (KITTI format, in the output folder) with seeded random-walk\n"
+                      "odometry drift, e.g. 0.01,0.1 = 1 % and 0.1 deg per metre driven (the optional\n"
+                      "floors err every frame, driven or not); replay it with\n"
+                      "`replay --poses OUT/poses_noisy.txt`");
   context.add(command, [options](const CommandContext& ctx) {
     SynthConfig config = ctx.load_app_config().synth;
     if (options->frames) config.frames = *options->frames;

@@ -54,7 +54,7 @@ RpeResult relative_pose_error(std::span<const Pose> estimated, std::span<const P
   check_lengths(estimated, ground_truth, "RPE");
   if (frame_delta == 0) throw InputError("RPE: frame delta must be >= 1");
   RpeResult out;
-  double sum_t = 0.0, sum_sq_t = 0.0, sum_deg = 0.0, sum_d = 0.0;
+  double sum_t = 0.0, sum_sq_t = 0.0, sum_deg = 0.0, sum_sq_deg = 0.0, sum_d = 0.0;
   for (std::size_t i = 0; i + frame_delta < estimated.size(); ++i) {
     const std::size_t j = i + frame_delta;
     double d = 0.0;
@@ -69,12 +69,14 @@ RpeResult relative_pose_error(std::span<const Pose> estimated, std::span<const P
     sum_t += t;
     sum_sq_t += t * t;
     sum_deg += angle_deg;
+    sum_sq_deg += angle_deg * angle_deg;
     sum_d += d;
   }
   if (out.pairs > 0) {
     out.translation_rmse_m = std::sqrt(sum_sq_t / static_cast<double>(out.pairs));
     out.translation_percent = 100.0 * sum_t / sum_d;
     out.rotation_deg_per_m = sum_deg / sum_d;
+    out.rotation_rmse_deg = std::sqrt(sum_sq_deg / static_cast<double>(out.pairs));
   }
   return out;
 }

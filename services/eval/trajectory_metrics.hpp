@@ -29,6 +29,8 @@ struct RpeResult {
   double translation_rmse_m = 0.0;      ///< √(mean |t(E_ij)|²)
   double translation_percent = 0.0;     ///< 100 · Σ|t(E_ij)| / Σ d_ij
   double rotation_deg_per_m = 0.0;      ///< Σ angle(E_ij) (deg) / Σ d_ij
+  double rotation_rmse_deg = 0.0;       ///< √(mean angle(E_ij)²): per pair, meaningful when the rig
+                                        ///< barely moves (hovering, parked) and the rates blow up
 };
 
 /// RPE over frame pairs (i, j = i + frame_delta): E_ij = (G_i⁻¹ G_j)⁻¹ (P_i⁻¹ P_j), the error of the

@@ -11,6 +11,8 @@
 #include "support/expect_error.hpp"
 #include "core/error.hpp"
 #include "io/euroc.hpp"
+#include "io/euroc_to_kitti.hpp"
+#include "io/kitti_odometry.hpp"
 #include "io/image_io.hpp"
 #include "support/test_data.hpp"
 
@@ -201,6 +203,35 @@ TEST(EurocSequence, RectifiesAndPosesTheRectifiedLeftCamera) {
   EXPECT_EQ(frame.right.size(), cv::Size(64, 48));
   EXPECT_DOUBLE_EQ(frame.timestamp_s, 1.0);
   EXPECT_CONTAINS(input_error_of([&] { load_euroc_frame(seq, 2); }), "out of range");
+}
+
+TEST(EurocToKitti, WritesThePosedPairsAsAKittiSequenceThatReadsBack) {
+  EurocFixture f;
+  const EurocSequence seq = open_euroc(f.root);
+  const fs::path out = f.scratch / "kitti";
+  const EurocExport written = write_euroc_as_kitti(seq, out);
+  EXPECT_EQ(written.frames, 1u);          // 1.0 s has a pose; 1.1 s has none within 20 ms
+  EXPECT_EQ(written.skipped_frames, 1u);
+  const KittiOdometrySequence kitti = open_kitti_odometry(out);
+  ASSERT_EQ(kitti.size(), 1u);
+  EXPECT_NEAR(kitti.camera.fx, seq.camera.fx, 1e-6);
+  EXPECT_NEAR(kitti.camera.cx, seq.camera.cx, 1e-6);
+  EXPECT_NEAR(kitti.camera.cy, seq.camera.cy, 1e-6);
+  EXPECT_NEAR(kitti.camera.baseline_m, 0.1, 1e-6);
+  ASSERT_EQ(kitti.poses.size(), 1u);
+  EXPECT_TRUE(kitti.poses[0].isApprox(Pose::Identity(), 1e-9));  // the first frame is the world
+  const StereoFrame rectified = load_euroc_frame(seq, 0);
+  const StereoFrame read = load_kitti_frame(kitti, 0);
+  cv::Mat grey_rectified, grey_read;
+  cv::extractChannel(rectified.left, grey_rectified, 0);
+  cv::extractChannel(read.left, grey_read, 0);
+  EXPECT_EQ(cv::norm(grey_rectified, grey_read, cv::NORM_INF), 0.0);  // lossless PNG
+
+  // Without ground truth nothing can be written: a clear error naming the sequence.
+  fs::remove_all(f.root / "groundtruth");
+  const EurocSequence unposed = open_euroc(f.root);
+  EXPECT_CONTAINS(input_error_of([&] { write_euroc_as_kitti(unposed, f.scratch / "none"); }),
+                  "no stereo pair has a ground-truth pose");
 }
 
 TEST(EurocSequence, MissingPartsAreNamed) {

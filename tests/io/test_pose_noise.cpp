@@ -64,11 +64,37 @@ TEST(PoseNoise, AccumulatedErrorGrowsWithDistance) {
   EXPECT_GT(error_at(59), 0.5);
 }
 
+TEST(PoseNoise, AStandingRigErrsByThePerStepFloorsOnly) {
+  // Twenty poses at one place (a hovering or parked rig): no metre is driven, so only the floors
+  // act, and every step errs by exactly them.
+  Pose parked = Pose::Identity();
+  parked.translation() = Eigen::Vector3d(1, 2, 3);
+  const std::vector<Pose> truth(20, parked);
+  const auto noisy = add_odometry_drift(truth, {0.01, 0.1, 0.002, 0.03}, 5);
+  for (std::size_t i = 1; i < truth.size(); ++i) {
+    const Pose error = noisy[i - 1].inverse() * noisy[i];  // the true step is the identity
+    EXPECT_NEAR(error.translation().norm(), 0.002, 1e-12) << "step " << i;
+    EXPECT_NEAR(Eigen::AngleAxisd(error.linear()).angle() / kDeg, 0.03, 1e-9) << "step " << i;
+  }
+  // Driving adds the floors to the rates.
+  const auto moving = drive(10);
+  const auto both = add_odometry_drift(moving, {0.01, 0.1, 0.002, 0.03}, 5);
+  for (std::size_t i = 1; i < moving.size(); ++i) {
+    const Pose gt_step = moving[i - 1].inverse() * moving[i];
+    const Pose error = gt_step.inverse() * (both[i - 1].inverse() * both[i]);
+    EXPECT_NEAR(error.translation().norm(), 0.01 * gt_step.translation().norm() + 0.002, 1e-9);
+  }
+}
+
 TEST(PoseNoise, ParsesRatesAndRejectsBadText) {
+  const PoseDrift floors = parse_pose_drift("0.01,0.1,0.002,0.03");
+  EXPECT_DOUBLE_EQ(floors.translation_per_step_m, 0.002);
+  EXPECT_DOUBLE_EQ(floors.rotation_deg_per_step, 0.03);
   const PoseDrift d = parse_pose_drift("0.01,0.1");
   EXPECT_DOUBLE_EQ(d.translation_per_m, 0.01);
   EXPECT_DOUBLE_EQ(d.rotation_deg_per_m, 0.1);
-  for (const char* bad : {"", "0.01", "a,b", "-0.01,0.1", "0.01,0.1x", "0.01,", ",0.1", "nan,0.1"}) {
+  for (const char* bad : {"", "0.01", "a,b", "-0.01,0.1", "0.01,0.1x", "0.01,", ",0.1", "nan,0.1", "0.01,0.1,0.002",
+                          "0.01,0.1,0.002,-0.03", "0.01,0.1,0.002,0.03,1"}) {
     try {
       parse_pose_drift(bad);
       ADD_FAILURE() << "no ConfigError for '" << bad << "'";

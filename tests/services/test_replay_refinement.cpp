@@ -3,6 +3,8 @@
 /// against the renderer's ground-truth trajectory.
 #include <gtest/gtest.h>
 
+#include "io/euroc.hpp"
+#include "io/euroc_to_kitti.hpp"
 #include "io/kitti_odometry.hpp"
 #include "io/synthetic/pose_noise.hpp"
 #include "services/replay.hpp"
@@ -66,6 +68,41 @@ TEST_F(ReplayRefinementTest, ExactPosesStayWithinCentimetres) {
   // each frame by millimetres; the prior keeps the sum within a few centimetres.
   EXPECT_LT(t.refined_ate.rmse_m, 0.03);
   EXPECT_LT(t.refined_rpe.rotation_deg_per_m, 0.1);
+}
+
+/// The EuRoC V1_01 sample (real images; the MAV stands or hovers), imported into the KITTI layout,
+/// with its ground-truth poses given per-frame noise (2 mm and 0.03° per frame).
+TEST(RealData, EurocRefinementIsNoWorseThanNoisyOrExactPoses) {
+  const auto root = test::shared_data("euroc/V1_01_easy_micro");
+  if (!root) GTEST_SKIP() << "shared data absent";
+  test::ScratchDir scratch;
+  io::write_euroc_as_kitti(io::open_euroc(*root), scratch / "v101");
+  const auto sequence = io::open_kitti_odometry(scratch / "v101");
+  io::write_kitti_poses(scratch / "noisy.txt",
+                        io::add_odometry_drift(sequence.poses, {0.01, 0.1, 0.002, 0.03}, 1));
+  AppConfig config;  // config/euroc.yaml
+  config.sgm.max_disparity = 64;
+  config.extraction.target_cells = 500;
+  config.map.max_range_m = 15.0;
+  config.refine.enabled = true;
+  config.refine.prior_sigma_m = 0.01;
+  config.refine.prior_sigma_deg = 0.05;
+  ReplayOptions options;
+  options.sequence_dir = scratch / "v101";
+  options.progress = false;
+  options.last_frame = 30;
+  const auto trajectory = [&](bool noisy) {
+    options.poses_path = noisy ? std::optional(scratch / "noisy.txt") : std::nullopt;
+    const ReplayReport report = run_replay(options, config);
+    EXPECT_TRUE(report.refine && report.refine->trajectory);
+    return report.refine && report.refine->trajectory ? *report.refine->trajectory : TrajectoryComparison{};
+  };
+  const TrajectoryComparison noisy = trajectory(true);
+  EXPECT_GT(noisy.input_ate.rmse_m, 0.005);
+  EXPECT_LT(noisy.refined_ate.rmse_m, 0.5 * noisy.input_ate.rmse_m);
+  const TrajectoryComparison exact = trajectory(false);
+  EXPECT_LT(exact.refined_ate.rmse_m, 0.01);
+  EXPECT_LT(exact.refined_rpe.rotation_rmse_deg, 0.1);
 }
 
 }  // namespace

@@ -75,6 +75,7 @@ TEST(Rpe, OneBadStepGivesItsErrorOverTheDistance) {
   EXPECT_NEAR(r.translation_percent, 100.0 * 0.05 / 9.0, 1e-9);
   EXPECT_NEAR(r.rotation_deg_per_m, 2.0 / 9.0, 1e-9);
   EXPECT_NEAR(r.translation_rmse_m, std::sqrt(0.05 * 0.05 / 9.0), 1e-12);
+  EXPECT_NEAR(r.rotation_rmse_deg, std::sqrt(2.0 * 2.0 / 9.0), 1e-9);
   // Over 3-frame windows the bad step is inside 3 of the 7 pairs: 3·0.05 m over 7·3 m.
   const RpeResult r3 = relative_pose_error(est, gt, 3);
   EXPECT_EQ(r3.pairs, 7u);
