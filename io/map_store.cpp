@@ -1,5 +1,7 @@
 #include "io/map_store.hpp"
 
+#include <spdlog/spdlog.h>
+
 #include <sqlite3.h>
 
 #include <charconv>
@@ -17,12 +19,13 @@ namespace {
 constexpr int kBusyTimeoutMs = 5000;
 
 constexpr const char* kFormat = "planecell-map";
-constexpr const char* kVersion = "3";  ///< 3: cells keep the map's fields only (map::MapCell)
+constexpr const char* kVersion = "4";  ///< 4: frames.input_pose (pose before refinement)
+constexpr const char* kMigratableVersion = "3";  ///< 3: as 4 without frames.input_pose
 
 constexpr const char* kSchema = R"sql(
 CREATE TABLE meta(key TEXT PRIMARY KEY, value TEXT NOT NULL);
 CREATE TABLE frames(frame_id INTEGER PRIMARY KEY, pose BLOB NOT NULL, input_cells INTEGER,
-                    added_cells INTEGER, fused_cells INTEGER, merge_ms REAL);
+                    added_cells INTEGER, fused_cells INTEGER, merge_ms REAL, input_pose BLOB);
 CREATE TABLE cells(id INTEGER PRIMARY KEY, frame_id INTEGER NOT NULL, surface INTEGER NOT NULL,
                    plane BLOB NOT NULL, vertices_m BLOB NOT NULL, mean_rgb BLOB NOT NULL,
                    depth_sigma_m REAL NOT NULL);
@@ -274,6 +277,7 @@ MapStore::MapStore(const std::filesystem::path& path) : path_(path) {
     sqlite3_busy_timeout(db_, kBusyTimeoutMs);
   };
   open(exists ? path : creating, SQLITE_OPEN_READWRITE | (exists ? 0 : SQLITE_OPEN_CREATE));
+  bool migrate = false;
   try {
     if (exists) {
       // Read-only checks first: integrity, then the format marker.
@@ -296,12 +300,28 @@ MapStore::MapStore(const std::filesystem::path& path) : path_(path) {
       if (!format.step(rc) || format.text(0) != kFormat)
         fail("a foreign SQLite database (format is not 'planecell-map'); left unchanged");
       Statement version(db_, "SELECT value FROM meta WHERE key='version'", *this);
-      if (!version.step(rc) || version.text(0) != kVersion)
-        fail("planecell map version '" + version.text(0) + "' is not the version " + kVersion +
+      const bool has_version = version.step(rc);
+      const std::string found = has_version ? version.text(0) : std::string();
+      if (found != kVersion && found != kMigratableVersion)
+        fail("planecell map version '" + found + "' is not the version " + kVersion +
              " this build reads (written by another planecell release; left unchanged)");
+      migrate = found == kMigratableVersion;
     }
     exec("PRAGMA journal_mode=WAL");
     exec("PRAGMA synchronous=NORMAL");
+    if (migrate) {  // version 3 → 4 in one transaction: frames gain input_pose (NULL for old frames)
+      exec("BEGIN IMMEDIATE");
+      try {
+        exec("ALTER TABLE frames ADD COLUMN input_pose BLOB");
+        exec("UPDATE meta SET value = '4' WHERE key = 'version'");
+        exec("COMMIT");
+      } catch (...) {
+        sqlite3_exec(db_, "ROLLBACK", nullptr, nullptr, nullptr);
+        throw;
+      }
+      spdlog::info("map store '{}': upgraded from version {} to {} (frames keep their input poses from now on)",
+                   path.string(), kMigratableVersion, kVersion);
+    }
     if (!exists) {
       exec("BEGIN IMMEDIATE");
       exec(kSchema);
@@ -332,7 +352,8 @@ MapStore::MapStore(const std::filesystem::path& path) : path_(path) {
 MapStore::~MapStore() { sqlite3_close(db_); }
 
 void MapStore::commit_frame(std::uint64_t frame_id, const Pose& T_world_cam,
-                            const map::MergeReport& report, const map::GlobalMap& map) {
+                            const map::MergeReport& report, const map::GlobalMap& map,
+                            const std::optional<Pose>& input_pose) {
   const std::string frame = "frame " + std::to_string(frame_id);
   exec("BEGIN IMMEDIATE");
   try {
@@ -340,11 +361,16 @@ void MapStore::commit_frame(std::uint64_t frame_id, const Pose& T_world_cam,
     {
       Writer pose;
       pose.put_matrix(T_world_cam.matrix());
-      Statement s(db_, "INSERT INTO frames VALUES (?, ?, ?, ?, ?, ?)", *this);
+      Statement s(db_, "INSERT INTO frames VALUES (?, ?, ?, ?, ?, ?, ?)", *this);
       s.bind(1, static_cast<std::int64_t>(frame_id)).bind(2, pose.bytes)
           .bind(3, static_cast<std::int64_t>(report.input_cells))
           .bind(4, static_cast<std::int64_t>(report.added_cells.size()))
           .bind(5, static_cast<std::int64_t>(report.fused_cells)).bind(6, report.merge_ms);
+      Writer input;
+      if (input_pose) {  // unbound: NULL (no refinement, the pose is the input)
+        input.put_matrix(input_pose->matrix());
+        s.bind(7, input.bytes);
+      }
       run(s, failed);
     }
     {
@@ -490,6 +516,23 @@ std::optional<Pose> MapStore::pose(std::uint64_t frame_id) const {
     return std::nullopt;
   }
   Reader r(s.blob(0), s.blob_size(0), "map store '" + path_.string() + "': pose of frame " + std::to_string(frame_id));
+  Pose pose;
+  r.get_matrix(pose.matrix());
+  r.expect_end();
+  return pose;
+}
+
+std::optional<Pose> MapStore::input_pose(std::uint64_t frame_id) const {
+  Statement s(db_, "SELECT input_pose FROM frames WHERE frame_id = ?", *this);
+  s.bind(1, static_cast<std::int64_t>(frame_id));
+  int rc = SQLITE_OK;
+  if (!s.step(rc)) {
+    if (rc != SQLITE_DONE) fail("cannot read frame input poses");
+    return std::nullopt;
+  }
+  if (s.blob_size(0) == 0) return std::nullopt;  // NULL: not refined
+  Reader r(s.blob(0), s.blob_size(0),
+           "map store '" + path_.string() + "': input pose of frame " + std::to_string(frame_id));
   Pose pose;
   r.get_matrix(pose.matrix());
   r.expect_end();

@@ -2,7 +2,8 @@
 /// Durable store of the global planecell map: SQLite in WAL mode, one transaction per frame.
 ///
 /// Schema: meta(key, value) with format = 'planecell-map', version and the map's id counters;
-/// frames(frame_id, pose, counts); cells(id, frame_id, surface, fields as columns, arrays as
+/// frames(frame_id, pose, counts, input_pose: the odometry pose before refinement, NULL when the
+/// pose was used as given); cells(id, frame_id, surface, fields as columns, arrays as
 /// little-endian blobs); cell_bounds (R*Tree on each cell's 3D bounds); surfaces(id, blob);
 /// merges(seq, frame_id, absorbed, into_surface). Values are stored exactly (IEEE bytes), so a
 /// reopened store rebuilds a GlobalMap equal to the one committed. Other tools can read it while
@@ -34,7 +35,8 @@ class MapStore {
  public:
   /// Opens the store at `path`, creating it when the file does not exist. An existing file that is
   /// not a planecell map (not SQLite, a foreign SQLite database, truncated or corrupt) raises
-  /// StorageError naming the path and is left untouched.
+  /// StorageError naming the path and is left untouched. A store of the previous version (3, before
+  /// frames kept their input poses) is upgraded in place in one transaction.
   explicit MapStore(const std::filesystem::path& path);
   ~MapStore();
   MapStore(const MapStore&) = delete;
@@ -44,8 +46,9 @@ class MapStore {
   /// cells (from `map`), relabelled and removed cells, updated and removed surfaces, the merge
   /// events and the id counters. On failure (disk full, I/O error, duplicate frame id) the
   /// transaction is rolled back, earlier frames stay intact, and StorageError names the path.
+  /// `input_pose`: the pose the frame came with when pose refinement replaced it by T_world_cam.
   void commit_frame(std::uint64_t frame_id, const Pose& T_world_cam, const map::MergeReport& report,
-                    const map::GlobalMap& map);
+                    const map::GlobalMap& map, const std::optional<Pose>& input_pose = std::nullopt);
 
   /// Reads the whole map back. Throws StorageError on corrupt rows.
   StoredMap load() const;
@@ -53,6 +56,8 @@ class MapStore {
   std::size_t frame_count() const;
   std::vector<std::uint64_t> frame_ids() const;
   std::optional<Pose> pose(std::uint64_t frame_id) const;
+  /// The frame's pose before refinement; nullopt when it was used as given (or no such frame).
+  std::optional<Pose> input_pose(std::uint64_t frame_id) const;
   std::vector<map::SurfaceMerge> merge_history() const;
   /// Ids of cells whose stored bounds overlap `box` (R*Tree query; bounds are rounded outward
   /// to float by SQLite).

@@ -123,12 +123,10 @@ ReplayReport run_replay(const ReplayOptions& options, const AppConfig& config) {
 
   std::optional<eval::MergeEvaluator> merge_evaluator;
   if (io::has_surface_ground_truth(sequence)) merge_evaluator.emplace();
-  std::optional<RefineStage> refine_stage;  // pose refinement (issue 9)
-  if (config.refine.enabled) {
-    if (options.threads)
-      throw ConfigError("refine.enabled: pose refinement is not available with --threads yet");
-    refine_stage.emplace(config.refine);
-  }
+  // Pose refinement (issue 9): on this thread here; threaded, in the pipeline's merge stage, whose
+  // record is copied here once it has finished.
+  std::optional<RefineStage> refine_stage;
+  if (config.refine.enabled && !options.threads) refine_stage.emplace(config.refine);
 
   double plane_fraction_sum = 0.0;
   auto sample_memory = [&](std::size_t map_bytes) {
@@ -179,6 +177,7 @@ ReplayReport run_replay(const ReplayOptions& options, const AppConfig& config) {
       extract_stage(work, config.extraction);
       if (refine_stage)  // the refined pose is used from here on (transform, merge, store, voxel)
         work.timed("refine", [&] {
+          work.input_pose = work.frame.pose;
           work.frame.pose = refine_stage->refine(work.frame_id, work.cells.cells, *work.frame.pose,
                                                  global_map, work.frame.camera);
         });
@@ -222,6 +221,7 @@ ReplayReport run_replay(const ReplayOptions& options, const AppConfig& config) {
       throw;
     }
     global_map = pipeline.finish();
+    if (const RefineStage* refinement = pipeline.refinement()) refine_stage = *refinement;
     const PipelineStats stats = pipeline.stats();
     report.stage_latency = stats.latency;
     report.stage_cost = stats.stage_cost;

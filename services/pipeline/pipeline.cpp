@@ -93,22 +93,38 @@ Pipeline::Pipeline(const AppConfig& config, PipelineMode mode, map::GlobalMap ma
   SgmConfig sgm = config_.sgm;
   if (config_.pipeline.sgm_threads > 0) sgm.threads = config_.pipeline.sgm_threads;
 
-  // The stage list: a new stage (e.g. pose refinement before merge) is one more entry.
+  if (config_.refine.enabled) refine_.emplace(config_.refine);
+  // Pose transform and the voxel baseline need the frame's final pose: with pose refinement it is
+  // known only in the merge thread (refinement reads the map that thread writes), so they run
+  // there, after it; without, in their own stage.
+  const auto place = [this](FrameWork& w) {
+    transform_stage(w);
+    if (voxels_) voxel_stage(w, *voxels_, config_.voxel);
+    if (sinks_.keep_images) return;
+    // Later stages need only the world cells: free the images early.
+    w.frame.left.release();
+    w.frame.right.release();
+    w.disparity.release();
+    w.cells.labels.release();
+    w.cells.dense_disparity.release();
+    w.cells.outliers.release();
+  };
+
+  // The stage list: a new stage is one more entry.
   stages_.push_back({"sgm", [sgm](FrameWork& w) { sgm_stage(w, sgm); }, true});
   stages_.push_back({"extract", [this](FrameWork& w) { extract_stage(w, config_.extraction); }, true});
-  stages_.push_back({"transform", [this](FrameWork& w) {
-                       transform_stage(w);
-                       if (voxels_) voxel_stage(w, *voxels_, config_.voxel);
-                       if (sinks_.keep_images) return;
-                       // Later stages need only the world cells: free the images early.
-                       w.frame.left.release();
-                       w.frame.right.release();
-                       w.disparity.release();
-                       w.cells.labels.release();
-                       w.cells.dense_disparity.release();
-                       w.cells.outliers.release();
+  stages_.push_back({"transform", [this, place](FrameWork& w) {
+                       if (!refine_) place(w);
                      }});
-  stages_.push_back({"merge", [this](FrameWork& w) {
+  stages_.push_back({"merge", [this, place](FrameWork& w) {
+                       if (refine_) {
+                         w.timed("refine", [&] {
+                           w.input_pose = w.frame.pose;
+                           w.frame.pose = refine_->refine(w.frame_id, w.cells.cells, *w.frame.pose, map_,
+                                                          w.frame.camera);
+                         });
+                         place(w);
+                       }
                        merge_stage(w, map_, sinks_.want_delta);
                        if (store_) store_stage(w, *store_, map_);
                        const std::lock_guard lock(stats_mutex_);

@@ -24,6 +24,7 @@
 #include "services/latency_stats.hpp"
 #include "services/pipeline/stage_cost_log.hpp"
 #include "services/pipeline/stages.hpp"
+#include "services/refine_stage.hpp"
 
 namespace planecell::io {
 class MapStore;
@@ -101,6 +102,10 @@ class Pipeline {
   /// Counters and latency percentiles so far (thread-safe).
   PipelineStats stats() const;
 
+  /// The pose refinement's per-frame record (config refine.enabled), else nullptr. Read it after
+  /// finish(): until then the merge thread writes it.
+  const RefineStage* refinement() const { return refine_ ? &*refine_ : nullptr; }
+
   bool stopping() const { return stop_requested_.load(); }
 
  private:
@@ -122,6 +127,7 @@ class Pipeline {
   io::MapStore* store_;
   voxel::VoxelMap* voxels_;
   PipelineSinks sinks_;
+  std::optional<RefineStage> refine_;  ///< used by the merge thread only
 
   std::vector<Stage> stages_;                    ///< sgm, extract, transform, merge (in order)
   std::vector<std::unique_ptr<Queue>> queues_;  ///< queues_[i] feeds stage i; the last feeds publish

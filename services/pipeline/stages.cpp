@@ -52,7 +52,7 @@ void merge_stage(FrameWork& work, map::GlobalMap& map, bool want_delta) {
 }
 
 void store_stage(FrameWork& work, io::MapStore& store, const map::GlobalMap& map) {
-  work.timed("store", [&] { store.commit_frame(work.frame_id, *work.frame.pose, work.merge, map); });
+  work.timed("store", [&] { store.commit_frame(work.frame_id, *work.frame.pose, work.merge, map, work.input_pose); });
 }
 
 void voxel_stage(FrameWork& work, voxel::VoxelMap& voxels, const VoxelConfig& config) {

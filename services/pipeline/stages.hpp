@@ -9,6 +9,7 @@
 #include <opencv2/core/mat.hpp>
 #include <string>
 #include <utility>
+#include <optional>
 #include <vector>
 
 #include "core/config/app_config.hpp"
@@ -51,6 +52,8 @@ struct FrameWork {
   /// published or counted.
   bool warm_up = false;
   StereoFrame frame;   ///< input images, camera, pose (required from the transform stage on)
+  /// The pose the frame came with, when pose refinement replaced frame.pose (stored beside it).
+  std::optional<Pose> input_pose;
   StageClock::time_point ingest_time{};  ///< when the frame entered the pipeline (end-to-end start)
   cv::Mat disparity;                     ///< sgm: CV_32F px, NaN = invalid
   extraction::PlanecellFrame cells;      ///< extract: camera-frame cells and label image

@@ -177,10 +177,61 @@ TEST(MapStoreTest, OtherFormatVersionIsRejectedByNameAndLeftUnchanged) {
     FAIL() << "expected StorageError";
   } catch (const StorageError& e) {
     const std::string what = e.what();
-    EXPECT_NE(what.find("version '2' is not the version 3"), std::string::npos) << what;
+    EXPECT_NE(what.find("version '2' is not the version 4"), std::string::npos) << what;
     EXPECT_NE(what.find(path.string()), std::string::npos) << what;
   }
   EXPECT_EQ(read_bytes(path), before);
+}
+
+TEST(MapStoreTest, RefinedFramesKeepTheirInputPoseBesideTheRefinedOne) {
+  test::ScratchDir dir;
+  MapStore store(dir / "map.db");
+  map::GlobalMap map;
+  const auto report = map.integrate(0, frame_pose(0), frame_cells(0));
+  Pose odometry = frame_pose(0);
+  odometry.translation() += Eigen::Vector3d(0.03, -0.01, 0.02);
+  store.commit_frame(0, frame_pose(0), report, map, odometry);
+  const auto second = map.integrate(1, frame_pose(1), frame_cells(1));
+  store.commit_frame(1, frame_pose(1), second, map);  // not refined: no input pose
+  ASSERT_TRUE(store.input_pose(0).has_value());
+  EXPECT_TRUE(store.input_pose(0)->isApprox(odometry, 0.0));
+  EXPECT_TRUE(store.pose(0)->isApprox(frame_pose(0), 0.0));
+  EXPECT_FALSE(store.input_pose(1).has_value());
+  EXPECT_FALSE(store.input_pose(7).has_value());  // no such frame
+}
+
+TEST(MapStoreTest, VersionThreeStoreIsUpgradedInPlaceAndResumes) {
+  test::ScratchDir dir;
+  const auto path = dir / "v3.db";
+  map::GlobalMap written;
+  {
+    MapStore store(path);
+    drive(written, 3, &store);
+  }
+  // Make it what version 3 wrote: frames without input_pose, version '3'.
+  sqlite3* db = nullptr;
+  ASSERT_EQ(sqlite3_open(path.c_str(), &db), SQLITE_OK);
+  ASSERT_EQ(sqlite3_exec(db, "ALTER TABLE frames DROP COLUMN input_pose; UPDATE meta SET value='3' WHERE key='version';",
+                         nullptr, nullptr, nullptr),
+            SQLITE_OK)
+      << sqlite3_errmsg(db);
+  sqlite3_close(db);
+  {
+    MapStore store(path);
+    EXPECT_EQ(store.frame_count(), 3u);
+    EXPECT_TRUE(store.pose(2)->isApprox(frame_pose(2), 0.0));
+    EXPECT_FALSE(store.input_pose(2).has_value());
+    map::GlobalMap resumed = load_map(store);
+    EXPECT_TRUE(resumed.same_content(written));
+    // New frames record their input pose in the upgraded store.
+    const auto report = resumed.integrate(3, frame_pose(3), frame_cells(3));
+    store.commit_frame(3, frame_pose(3), report, resumed, frame_pose(2));
+    EXPECT_TRUE(store.input_pose(3)->isApprox(frame_pose(2), 0.0));
+  }
+  // Reopened: version 4 now, no second upgrade.
+  MapStore again(path);
+  EXPECT_EQ(again.frame_count(), 4u);
+  EXPECT_TRUE(again.input_pose(3)->isApprox(frame_pose(2), 0.0));
 }
 
 TEST(MapStoreTest, TruncatedCopyIsRejected) {

@@ -6,6 +6,7 @@
 #include "io/euroc.hpp"
 #include "io/euroc_to_kitti.hpp"
 #include "io/kitti_odometry.hpp"
+#include "io/map_store.hpp"
 #include "io/synthetic/pose_noise.hpp"
 #include "services/replay.hpp"
 #include "support/small_street.hpp"
@@ -68,6 +69,35 @@ TEST_F(ReplayRefinementTest, ExactPosesStayWithinCentimetres) {
   // each frame by millimetres; the prior keeps the sum within a few centimetres.
   EXPECT_LT(t.refined_ate.rmse_m, 0.03);
   EXPECT_LT(t.refined_rpe.rotation_deg_per_m, 0.1);
+}
+
+TEST_F(ReplayRefinementTest, ThreadedPipelineRefinesLikeTheSingleThreadedReplayAndStoresBothPoses) {
+  ReplayOptions options;
+  options.sequence_dir = scratch_ / "seq";
+  options.progress = false;
+  options.poses_path = scratch_ / "noisy.txt";
+  options.last_frame = 12;
+  options.map_path = scratch_ / "single.db";
+  const ReplayReport single = run_replay(options, config_);
+  options.threads = true;
+  options.map_path = scratch_ / "threaded.db";
+  const ReplayReport threaded = run_replay(options, config_);
+  ASSERT_TRUE(single.refine && threaded.refine);
+  ASSERT_EQ(threaded.refine->frames.size(), single.refine->frames.size());
+  EXPECT_GE(threaded.refine->refined_frames, 10u);
+  for (std::size_t i = 0; i < single.refine->frames.size(); ++i)
+    EXPECT_TRUE(threaded.refine->frames[i].refined.isApprox(single.refine->frames[i].refined, 1e-12)) << "frame " << i;
+  // The store keeps the refined pose and, beside it, the odometry pose the frame came with.
+  const auto noisy = io::open_kitti_odometry(scratch_ / "seq", scratch_ / "noisy.txt").poses;
+  io::MapStore store(scratch_ / "threaded.db");
+  for (std::uint64_t f = 1; f < 12; ++f) {
+    const FrameRefinement& record = threaded.refine->frames[f];
+    ASSERT_EQ(record.frame_id, f);
+    ASSERT_TRUE(store.pose(f).has_value());
+    EXPECT_TRUE(store.pose(f)->isApprox(record.refined, 0.0)) << "frame " << f;
+    ASSERT_TRUE(store.input_pose(f).has_value()) << "frame " << f;
+    EXPECT_TRUE(store.input_pose(f)->isApprox(noisy[f], 1e-12)) << "frame " << f;
+  }
 }
 
 /// The EuRoC V1_01 sample (real images; the MAV stands or hovers), imported into the KITTI layout,
