@@ -50,6 +50,25 @@ std::vector<Planecell> codec_cells(const StereoCamera& camera) {
   return cells;
 }
 
+/// A 3 × 3 grid of 8 px lattice squares in raster order: every cell after the first shares
+/// vertices and edges with earlier ones (frontier references, backward and forward runs).
+std::vector<Planecell> codec_tiling(const StereoCamera& camera) {
+  std::vector<Planecell> cells;
+  for (std::uint32_t k = 0; k < 9; ++k) {
+    Planecell c;
+    c.id = k;
+    const float x0 = 8.0f * static_cast<float>(k % 3) - 0.5f;
+    const float y0 = 8.0f * static_cast<float>(k / 3) - 0.5f;
+    c.vertices_px = {{x0, y0}, {x0 + 8, y0}, {x0 + 8, y0 + 8}, {x0, y0 + 8}};
+    c.has_plane = k != 4;
+    c.disparity_plane = {0.01, 0.0, 10.0 + k};
+    c.mean_rgb = Eigen::Vector3f(20.0f * k, 50, 90);
+    if (c.has_plane) c.plane = plane_from_disparity(c.disparity_plane, camera);
+    cells.push_back(c);
+  }
+  return cells;
+}
+
 void write_bytes(const fs::path& path, const std::vector<std::uint8_t>& bytes) {
   std::ofstream out(path, std::ios::binary);
   out.write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()));
@@ -124,6 +143,8 @@ int main(int argc, char** argv) {
     write_bytes(out / "planecell_codec" / "seed_compact", io::encode_planecells(cells, camera, 7));
     write_bytes(out / "planecell_codec" / "seed_full",
                 io::encode_planecells(cells, camera, 8, {true, true, true}));
+    write_bytes(out / "planecell_codec" / "seed_tiling",
+                io::encode_planecells(codec_tiling(camera), camera, 9, {false, false, true}));
 
     // A two-frame map store (rolled into one file: WAL checkpointed when the store closes).
     const fs::path db = out / "map_store" / "seed_two_frames.db";
