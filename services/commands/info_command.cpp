@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 #include <iomanip>
+#include <Eigen/Geometry>
+#include <numbers>
 #include <iostream>
 #include <limits>
 #include <memory>
@@ -233,6 +235,25 @@ std::string describe_map_store(const fs::path& path) {
       << " with a surface label)\n";
   out << "  surfaces:     " << global_map.surfaces().size() << ", " << area_m2 << " m² in all\n";
   out << "  merges:       " << store.merge_history().size() << " surface merges recorded\n";
+  // Pose refinement: frames whose odometry pose was replaced, and by how much.
+  std::size_t refined = 0;
+  double sum_m = 0.0, max_m = 0.0, max_deg = 0.0;
+  for (const std::uint64_t id : store.frame_ids()) {
+    const auto input = store.input_pose(id);
+    const auto pose = store.pose(id);
+    if (!input || !pose) continue;
+    ++refined;
+    const double moved_m = (pose->translation() - input->translation()).norm();
+    sum_m += moved_m;
+    max_m = std::max(max_m, moved_m);
+    max_deg = std::max(max_deg, Eigen::AngleAxisd(input->linear().transpose() * pose->linear()).angle() *
+                                    180.0 / std::numbers::pi);
+  }
+  if (refined > 0)
+    out << "  refinement:   " << refined << " of " << store.frame_count()
+        << " frames refined (odometry poses kept); correction mean " << std::setprecision(3)
+        << sum_m / static_cast<double>(refined) << " m, max " << max_m << " m / " << max_deg << " deg\n"
+        << std::setprecision(1);
   out << "  map in RAM:   " << global_map.map_bytes() / 1024.0 << " KiB\n";
   out << "  file size:    " << fs::file_size(path) / 1024.0 << " KiB\n";
   return out.str();

@@ -8,6 +8,8 @@
 #include "support/expect_error.hpp"
 #include "io/disparity_io.hpp"
 #include "io/image_io.hpp"
+#include "io/map_store.hpp"
+#include "support/planecell_fixtures.hpp"
 #include "support/test_data.hpp"
 
 namespace planecell::services {
@@ -46,6 +48,29 @@ TEST(InfoCommand, SummarisesAKittiLayoutFolder) {
   EXPECT_CONTAINS(out, "path length 5.0 m");
   EXPECT_CONTAINS(out, "disp_occ_0/ (2 files)");
   EXPECT_CONTAINS(out, "surface_0/ missing");
+}
+
+TEST(InfoCommand, SummarisesAMapStoreWithItsRefinedFrames) {
+  test::ScratchDir dir;
+  const fs::path db = dir / "map.db";
+  {
+    io::MapStore store(db);
+    map::GlobalMap map;
+    const auto cell = test::rect_cell(0, {0, 1.5f, 5}, {1, 0, 0}, {0, 0, 1}, 3);
+    const auto first = map.integrate(0, Pose::Identity(), std::vector<Planecell>{cell});
+    store.commit_frame(0, Pose::Identity(), first, map);  // used as given
+    Pose refined = Pose::Identity();
+    refined.translation() = Eigen::Vector3d(0, 0, 1);
+    Pose odometry = refined;
+    odometry.translation() += Eigen::Vector3d(0.03, 0, 0.04);  // 5 cm off
+    const auto second = map.integrate(1, refined, std::vector<Planecell>{cell});
+    store.commit_frame(1, refined, second, map, odometry);
+  }
+  std::string out;
+  ASSERT_EQ(run_info(db.string(), &out), 0) << out;
+  EXPECT_CONTAINS(out, "2 committed");
+  EXPECT_CONTAINS(out, "1 of 2 frames refined");
+  EXPECT_CONTAINS(out, "mean 0.050 m, max 0.050 m / 0.000 deg");
 }
 
 TEST(InfoCommand, SummarisesADisparityMap) {
