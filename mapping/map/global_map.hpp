@@ -137,6 +137,9 @@ class GlobalMap {
 
   /// Ids of stored cells whose bounds overlap `box` (sorted).
   std::vector<std::uint32_t> cells_near(const Aabb& box) const;
+  /// Ids of stored cells in the spatial-index buckets `box` touches (sorted): a superset of
+  /// cells_near(box) without its bounds test, for callers that filter by cheaper criteria first.
+  std::vector<std::uint32_t> cell_candidates(const Aabb& box) const { return index_.candidates(box); }
 
   /// Nearest stored cell within max_distance_m (distance_to_polygon: point-to-plane |n·p + e|
   /// inside the polygon, distance to the boundary outside). nullopt when none is that close.

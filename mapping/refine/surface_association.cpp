@@ -112,10 +112,13 @@ std::vector<SurfaceAssociation> associate_cells(std::span<const Planecell> cells
     map::Aabb box;
     box.extend(x);
     candidates.clear();
-    for (const std::uint32_t id : map.cells_near(box.inflated(search_m))) {
+    // The index's candidates; on-plane cells only, tested against their bounds computed once.
+    const map::Aabb reach = box.inflated(search_m);
+    for (const std::uint32_t id : map.cell_candidates(reach)) {
       const auto inlier = surfaces.on_plane_cells.find(id);
       if (inlier == surfaces.on_plane_cells.end()) continue;  // not on its surface's plane
-      const std::uint32_t surface_id = inlier->second;
+      if (!inlier->second.bounds.overlaps(reach)) continue;
+      const std::uint32_t surface_id = inlier->second.surface;
       auto it = std::find_if(candidates.begin(), candidates.end(),
                              [&](const Candidate& c) { return c.surface == surface_id; });
       if (it != candidates.end() && (it->contained || !it->passes)) continue;

@@ -73,7 +73,8 @@ SurfacePlanes surface_planes_near(const map::GlobalMap& map, const map::Aabb& re
         1.0, static_cast<double>(surface->observations) / static_cast<double>(std::max<std::size_t>(surface->cells.size(), 1)));
     s.weight *= fused_factor;
     s.inverse_scatter /= fused_factor;
-    for (const std::uint32_t id : on_plane) out.on_plane_cells.emplace(id, surface_id);
+    for (const std::uint32_t id : on_plane)
+      out.on_plane_cells.emplace(id, SurfacePlanes::OnPlaneCell{surface_id, map::bounds_of(map.cell(id)->vertices_m)});
     out.planes.emplace(surface_id, s);
   }
   return out;

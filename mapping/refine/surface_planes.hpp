@@ -38,7 +38,11 @@ struct SurfacePlane {
 /// The surfaces with stored cells in a region, and the member cells that lie on their plane.
 struct SurfacePlanes {
   std::unordered_map<std::uint32_t, SurfacePlane> planes;  ///< by map surface id
-  std::unordered_map<std::uint32_t, std::uint32_t> on_plane_cells;  ///< map cell id → its surface
+  struct OnPlaneCell {
+    std::uint32_t surface = 0;  ///< the surface whose plane the cell lies on
+    map::Aabb bounds;           ///< bounds of the cell's vertices (computed once per frame)
+  };
+  std::unordered_map<std::uint32_t, OnPlaneCell> on_plane_cells;  ///< by map cell id
 };
 
 /// σ of a stored map cell (m): max(depth_sigma_scale · depth_sigma_m, plane_sigma_m).
