@@ -125,8 +125,8 @@ ReplayReport run_replay(const ReplayOptions& options, const AppConfig& config) {
   if (io::has_surface_ground_truth(sequence)) merge_evaluator.emplace();
   // Pose refinement (issue 9): on this thread here; threaded, in the pipeline's merge stage, whose
   // record is copied here once it has finished.
-  std::optional<RefineStage> refine_stage;
-  if (config.refine.enabled && !options.threads) refine_stage.emplace(config.refine);
+  std::optional<RefineStage> refinement;
+  if (config.refine.enabled && !options.threads) refinement.emplace(config.refine);
 
   double plane_fraction_sum = 0.0;
   auto sample_memory = [&](std::size_t map_bytes) {
@@ -175,12 +175,7 @@ ReplayReport run_replay(const ReplayOptions& options, const AppConfig& config) {
       FrameWork work = load_when_due(index);
       sgm_stage(work, config.sgm);
       extract_stage(work, config.extraction);
-      if (refine_stage)  // the refined pose is used from here on (transform, merge, store, voxel)
-        work.timed("refine", [&] {
-          work.input_pose = work.frame.pose;
-          work.frame.pose = refine_stage->refine(work.frame_id, work.cells.cells, *work.frame.pose,
-                                                 global_map, work.frame.camera);
-        });
+      if (refinement) refine_stage(work, *refinement, global_map);
       transform_stage(work);
       merge_stage(work, global_map, options.sinks.want_delta);
       if (store) store_stage(work, *store, global_map);
@@ -221,7 +216,7 @@ ReplayReport run_replay(const ReplayOptions& options, const AppConfig& config) {
       throw;
     }
     global_map = pipeline.finish();
-    if (const RefineStage* refinement = pipeline.refinement()) refine_stage = *refinement;
+    if (const RefineStage* record = pipeline.refinement()) refinement = *record;
     const PipelineStats stats = pipeline.stats();
     report.stage_latency = stats.latency;
     report.stage_cost = stats.stage_cost;
@@ -259,10 +254,10 @@ ReplayReport run_replay(const ReplayOptions& options, const AppConfig& config) {
     const auto metrics = merge_evaluator->finish();
     if (metrics.cells > 0) report.merge_metrics = metrics;  // none from --threads (labels dropped)
   }
-  if (refine_stage) {  // pose refinement hook (issue 9): ground truth = the sequence's own poses
+  if (refinement) {  // pose refinement (issue 9): ground truth = the sequence's own poses
     const auto truth = sequence_ground_truth(options.sequence_dir);
-    report.refine = truth ? refine_stage->summary(truth->second, truth->first)
-                          : refine_stage->summary({}, std::nullopt);
+    report.refine = truth ? refinement->summary(truth->second, truth->first)
+                          : refinement->summary({}, std::nullopt);
   }
   report.wall_s = ms_since(start) / 1000.0;
   report.frames_per_s = report.wall_s > 0.0 ? static_cast<double>(report.frames) / report.wall_s : 0.0;

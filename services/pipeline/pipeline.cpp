@@ -118,11 +118,7 @@ Pipeline::Pipeline(const AppConfig& config, PipelineMode mode, map::GlobalMap ma
                      }});
   stages_.push_back({"merge", [this, place](FrameWork& w) {
                        if (refine_) {
-                         w.timed("refine", [&] {
-                           w.input_pose = w.frame.pose;
-                           w.frame.pose = refine_->refine(w.frame_id, w.cells.cells, *w.frame.pose, map_,
-                                                          w.frame.camera);
-                         });
+                         refine_stage(w, *refine_, map_);
                          place(w);
                        }
                        merge_stage(w, map_, sinks_.want_delta);

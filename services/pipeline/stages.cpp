@@ -51,6 +51,13 @@ void merge_stage(FrameWork& work, map::GlobalMap& map, bool want_delta) {
   work.map_bytes = map.map_bytes();  // O(cells), outside the merge time
 }
 
+void refine_stage(FrameWork& work, RefineStage& refinement, const map::GlobalMap& map) {
+  work.timed("refine", [&] {
+    work.input_pose = work.frame.pose;
+    work.frame.pose = refinement.refine(work.frame_id, work.cells.cells, *work.frame.pose, map, work.frame.camera);
+  });
+}
+
 void store_stage(FrameWork& work, io::MapStore& store, const map::GlobalMap& map) {
   work.timed("store", [&] { store.commit_frame(work.frame_id, *work.frame.pose, work.merge, map, work.input_pose); });
 }

@@ -21,6 +21,7 @@
 #include "mapping/map/global_map.hpp"
 #include "mapping/planecell/extraction.hpp"
 #include "services/pipeline/thread_usage.hpp"
+#include "services/refine_stage.hpp"
 
 namespace planecell::io {
 class MapStore;
@@ -97,6 +98,11 @@ void extract_stage(FrameWork& work, const ExtractionConfig& config);
 /// cells dropped) and the frame's label adjacency for the merger. Throws InputError when the
 /// frame has no pose or a bad one.
 void transform_stage(FrameWork& work);
+
+/// refine: pose refinement of the frame's camera-frame cells against `map` (RefineStage::refine);
+/// the input pose moves to work.input_pose and frame.pose becomes the refined one, used from
+/// here on (transform, voxel, merge, store). Runs where `map` is not being written.
+void refine_stage(FrameWork& work, RefineStage& refinement, const map::GlobalMap& map);
 
 /// merge: GlobalMap::integrate of the world cells. With `want_delta`, copies the changes into
 /// work.delta (MapDelta) for consumers that run after the map has moved on.
