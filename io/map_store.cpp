@@ -300,8 +300,7 @@ MapStore::MapStore(const std::filesystem::path& path) : path_(path) {
       if (!format.step(rc) || format.text(0) != kFormat)
         fail("a foreign SQLite database (format is not 'planecell-map'); left unchanged");
       Statement version(db_, "SELECT value FROM meta WHERE key='version'", *this);
-      const bool has_version = version.step(rc);
-      const std::string found = has_version ? version.text(0) : std::string();
+      const std::string found = version.step(rc) ? version.text(0) : std::string();
       if (found != kVersion && found != kMigratableVersion)
         fail("planecell map version '" + found + "' is not the version " + kVersion +
              " this build reads (written by another planecell release; left unchanged)");
@@ -508,31 +507,24 @@ std::vector<std::uint64_t> MapStore::frame_ids() const {
 }
 
 std::optional<Pose> MapStore::pose(std::uint64_t frame_id) const {
-  Statement s(db_, "SELECT pose FROM frames WHERE frame_id = ?", *this);
-  s.bind(1, static_cast<std::int64_t>(frame_id));
-  int rc = SQLITE_OK;
-  if (!s.step(rc)) {
-    if (rc != SQLITE_DONE) fail("cannot read frame poses");
-    return std::nullopt;
-  }
-  Reader r(s.blob(0), s.blob_size(0), "map store '" + path_.string() + "': pose of frame " + std::to_string(frame_id));
-  Pose pose;
-  r.get_matrix(pose.matrix());
-  r.expect_end();
-  return pose;
+  return read_pose("SELECT pose FROM frames WHERE frame_id = ?", frame_id, "pose");
 }
 
 std::optional<Pose> MapStore::input_pose(std::uint64_t frame_id) const {
-  Statement s(db_, "SELECT input_pose FROM frames WHERE frame_id = ?", *this);
+  return read_pose("SELECT input_pose FROM frames WHERE frame_id = ?", frame_id, "input pose");
+}
+
+std::optional<Pose> MapStore::read_pose(const char* sql, std::uint64_t frame_id, const char* what) const {
+  Statement s(db_, sql, *this);
   s.bind(1, static_cast<std::int64_t>(frame_id));
   int rc = SQLITE_OK;
   if (!s.step(rc)) {
-    if (rc != SQLITE_DONE) fail("cannot read frame input poses");
-    return std::nullopt;
+    if (rc != SQLITE_DONE) fail(std::string("cannot read the ") + what + " of frame " + std::to_string(frame_id));
+    return std::nullopt;  // no such frame
   }
-  if (s.blob_size(0) == 0) return std::nullopt;  // NULL: not refined
+  if (s.blob_size(0) == 0) return std::nullopt;  // NULL input pose: used as given
   Reader r(s.blob(0), s.blob_size(0),
-           "map store '" + path_.string() + "': input pose of frame " + std::to_string(frame_id));
+           "map store '" + path_.string() + "': " + what + " of frame " + std::to_string(frame_id));
   Pose pose;
   r.get_matrix(pose.matrix());
   r.expect_end();

@@ -67,6 +67,8 @@ class MapStore {
 
  private:
   [[noreturn]] void fail(const std::string& what) const;
+  /// The pose blob `sql` selects for `frame_id` (one `?`); nullopt when no row or NULL.
+  std::optional<Pose> read_pose(const char* sql, std::uint64_t frame_id, const char* what) const;
   void exec(const char* sql) const;
 
   std::filesystem::path path_;
