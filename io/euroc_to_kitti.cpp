@@ -2,7 +2,6 @@
 
 #include <opencv2/imgproc.hpp>
 
-#include <cstdio>
 #include <string>
 #include <vector>
 
@@ -12,12 +11,6 @@
 
 namespace planecell::io {
 namespace {
-
-std::string frame_name(std::size_t index) {
-  char name[32];
-  std::snprintf(name, sizeof name, "%06zu.png", index);
-  return name;
-}
 
 cv::Mat grey(const cv::Mat& image) {
   if (image.channels() == 1) return image;
@@ -59,8 +52,8 @@ EurocExport write_euroc_as_kitti(const EurocSequence& sequence, const std::files
   for (std::size_t k = 0; k < posed.size(); ++k) {
     const std::size_t i = posed[k];
     const StereoFrame frame = load_euroc_frame(sequence, i);
-    write_image(out_dir / "image_0" / frame_name(k), grey(frame.left), 1);
-    write_image(out_dir / "image_1" / frame_name(k), grey(frame.right), 1);
+    write_image(out_dir / "image_0" / kitti_frame_name(k), grey(frame.left), 1);
+    write_image(out_dir / "image_1" / kitti_frame_name(k), grey(frame.right), 1);
     Pose relative = first_inverse * *sequence.poses[i];
     validate_pose(relative, "EuRoC pose of frame " + std::to_string(i));
     poses.push_back(relative);
@@ -68,6 +61,7 @@ EurocExport write_euroc_as_kitti(const EurocSequence& sequence, const std::files
     ++out.frames;
   }
   write_kitti_poses(out_dir / "poses" / "00.txt", poses);
+  out.poses = std::move(poses);
   write_kitti_times(out_dir / "times.txt", times);
   return out;
 }

@@ -3,6 +3,7 @@
 /// `feed`, `bench` and `eval` read it like any other sequence.
 #include <cstddef>
 #include <filesystem>
+#include <vector>
 
 #include "io/euroc.hpp"
 
@@ -13,6 +14,7 @@ struct EurocExport {
   std::size_t frames = 0;          ///< stereo pairs written (those with a ground-truth pose)
   std::size_t skipped_frames = 0;  ///< pairs without a ground-truth pose within 20 ms
   StereoCamera camera;             ///< the rectified pair (calib.txt)
+  std::vector<Pose> poses;         ///< poses/00.txt as written (first frame = identity)
 };
 
 /// Writes the frames of `sequence` that have a ground-truth pose to `out_dir` in KITTI odometry

@@ -40,6 +40,8 @@ void write_kitti_poses(const std::filesystem::path& path, const std::vector<Pose
 /// Reads times.txt (one time in seconds per line). Errors name the file and line.
 std::vector<double> read_kitti_times(const std::filesystem::path& path);
 void write_kitti_times(const std::filesystem::path& path, const std::vector<double>& times_s);
+/// The image file name of frame `index` in the layout: six digits, zero-padded ("000042.png").
+std::string kitti_frame_name(std::size_t index);
 
 /// The pose file of a sequence folder, looked up in this order: SEQ/poses/<seqname>.txt;
 /// SEQ/poses/00.txt or the only *.txt in SEQ/poses; SEQ/../../poses/<seqname>.txt (official

@@ -81,4 +81,10 @@ void write_kitti_times(const std::filesystem::path& path, const std::vector<doub
   finish(out, path, "times");
 }
 
+std::string kitti_frame_name(std::size_t index) {
+  char buffer[32];
+  std::snprintf(buffer, sizeof(buffer), "%06zu.png", index);
+  return buffer;
+}
+
 }  // namespace planecell::io

@@ -24,12 +24,6 @@ double elapsed_ms(Clock::time_point since) {
   return std::chrono::duration<double, std::milli>(Clock::now() - since).count();
 }
 
-std::string frame_name(std::size_t index) {
-  char buffer[32];
-  std::snprintf(buffer, sizeof(buffer), "%06zu.png", index);
-  return buffer;
-}
-
 void emit_vector(YAML::Emitter& out, const Eigen::Vector3d& v) {
   out << YAML::Flow << YAML::BeginSeq << v.x() << v.y() << v.z() << YAML::EndSeq;
 }
@@ -188,7 +182,7 @@ SequenceStats write_sequence(const SyntheticWorld& world, const std::filesystem:
     auto view = std::make_shared<const SyntheticView>(render_view(world, world.trajectory[i], i));
     stats.render_ms += elapsed_ms(render_start);
     finish_pending();
-    const std::string name = frame_name(i);
+    const std::string name = kitti_frame_name(i);
     pending[0] = std::async(std::launch::async, [=] {
       const auto start = Clock::now();
       write_image(out_dir / "image_2" / name, view->left, png_compression);

@@ -64,9 +64,8 @@ void add_import_euroc_command(CLI::App& app, CommandContext& context) {
                  written.frames, written.camera.width, written.camera.height, written.camera.fx,
                  written.camera.baseline_m, out_dir.string(), written.skipped_frames);
     if (drift) {
-      const io::KittiOdometrySequence kitti = io::open_kitti_odometry(out_dir);
       io::write_kitti_poses(out_dir / "poses_noisy.txt",
-                            io::add_odometry_drift(kitti.poses, *drift, options->seed));
+                            io::add_odometry_drift(written.poses, *drift, options->seed));
       spdlog::info("import-euroc: noisy odometry ({} m/m, {} deg/m) in {}", drift->translation_per_m,
                    drift->rotation_deg_per_m, (out_dir / "poses_noisy.txt").string());
     }

@@ -220,6 +220,8 @@ TEST(EurocToKitti, WritesThePosedPairsAsAKittiSequenceThatReadsBack) {
   EXPECT_NEAR(kitti.camera.baseline_m, 0.1, 1e-6);
   ASSERT_EQ(kitti.poses.size(), 1u);
   EXPECT_TRUE(kitti.poses[0].isApprox(Pose::Identity(), 1e-9));  // the first frame is the world
+  ASSERT_EQ(written.poses.size(), 1u);  // what was written, handed back (for --pose-noise)
+  EXPECT_TRUE(written.poses[0].isApprox(kitti.poses[0], 1e-12));
   const StereoFrame rectified = load_euroc_frame(seq, 0);
   const StereoFrame read = load_kitti_frame(kitti, 0);
   cv::Mat grey_rectified, grey_read;
