@@ -2,9 +2,11 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include <charconv>
 #include <fstream>
 #include <set>
 #include <sstream>
+#include <type_traits>
 
 #include "core/error.hpp"
 
@@ -90,7 +92,15 @@ std::string config_to_yaml(const AppConfig& config_in) {
   visit_sections(config, [&](const char* name, auto& section) {
     out << YAML::Key << name << YAML::Value << YAML::BeginMap;
     visit_fields(section, [&](const char* key, auto& field) {
-      out << YAML::Key << key << YAML::Value << field;
+      out << YAML::Key << key << YAML::Value;
+      if constexpr (std::is_same_v<std::decay_t<decltype(field)>, double>) {
+        // Shortest text that reads back as the same double: 0.3, not 0.29999999999999999.
+        char text[32];
+        const auto end = std::to_chars(text, text + sizeof text, field).ptr;
+        out << std::string(text, end);
+      } else {
+        out << field;
+      }
     });
     out << YAML::EndMap;
   });

@@ -19,6 +19,16 @@ struct SgmConfig {
   int census_height = 7;    ///< census window height (odd)
   double lambda_grad = 0.5;  ///< λ_grad, weight of the gradient term
   int grad_cap = 30;        ///< truncation of |G_L − G_R| (grey levels/px)
+  /// Cost of a disparity whose match falls left of the right image (x − d < 0), as a share of the
+  /// largest cost C_max = census_w·census_h − 1 + λ_grad·grad_cap (77 at the defaults). Such a
+  /// match is unobservable, not wrong. At C_max (1.0) the paths pushed the left border strip
+  /// (x < true d) towards the few disparities still inside the image, and the planes fitted there
+  /// inherited them. Near the cost of an ordinary match, the paths carry the neighbours' disparity
+  /// into the strip instead. 0.3 (23 of 77, about a third of the census bits differing) gave lower
+  /// error on every Middlebury and KITTI sample and the synthetic street, raw SGM and planes alike
+  /// (docs/PERFORMANCE.md, "Left border"). 0.25–0.35 are within noise of each other; 0 lets
+  /// impossible disparities win.
+  double out_of_image_cost = 0.3;
 
   // Aggregation (Eq. 2).
   int paths = 8;            ///< 8 (all directions) or 4 (horizontal + vertical)
@@ -51,6 +61,7 @@ void visit_fields(SgmConfig& c, Visitor&& visit) {
   visit("census_height", c.census_height);
   visit("lambda_grad", c.lambda_grad);
   visit("grad_cap", c.grad_cap);
+  visit("out_of_image_cost", c.out_of_image_cost);
   visit("paths", c.paths);
   visit("p1", c.p1);
   visit("p2", c.p2);

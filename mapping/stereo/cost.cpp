@@ -101,7 +101,8 @@ CostInputs cost_inputs(const CensusImage& census_l, const CensusImage& census_r,
   in.dp = padded_disparities(config.max_disparity);
   in.grad_cap = config.grad_cap;
   in.lambda_q4 = lambda_q4(config.lambda_grad);
-  in.invalid = static_cast<std::uint8_t>(out_of_image_cost(config));
+  in.out_of_image = static_cast<std::uint8_t>(out_of_image_cost(config));
+  in.padding = static_cast<std::uint8_t>(largest_cost(config));
   return in;
 }
 
@@ -129,7 +130,7 @@ void cost_row(const CostInputs& in, const ReversedRightRow& right, int x_begin, 
   const int y = right.y;
   const int width = in.census_l->width, dp = in.dp, d_max = in.max_disparity;
   const int cap = in.grad_cap, lq4 = in.lambda_q4;  // copies: no aliasing with the uint8 stores
-  const std::uint8_t invalid = in.invalid;
+  const std::uint8_t out_of_image = in.out_of_image, padding = in.padding;
   const std::uint64_t* census_l = in.census_l->bits.data() + static_cast<std::size_t>(y) * width;
   const std::int16_t* gl = in.gradient_l->ptr<std::int16_t>(y);
   for (int x = x_begin; x < x_end; ++x) {
@@ -150,7 +151,8 @@ void cost_row(const CostInputs& in, const ReversedRightRow& right, int x_begin, 
           std::min(255, std::popcount(cl ^ cr[d]) + ((g * lq4 + 8) >> 4)));
     }
 #endif
-    for (int d = valid; d < dp; ++d) c[d] = invalid;
+    for (int d = valid; d < d_max; ++d) c[d] = out_of_image;
+    for (int d = std::max(valid, d_max); d < dp; ++d) c[d] = padding;
   }
 }
 

@@ -50,7 +50,8 @@ inline __m512i gradient_cost32(__m512i g_l, const std::int16_t* g_r, __m512i cap
 /// T_R(x − d)) for d = d0 + 8k + i in 64-bit lanes i; the low bytes of h_2j and h_2j+1 are
 /// gathered into bytes 16j … 16j+15 (d order) by one two-source VPERMT2B each and merged.
 /// The gradient term is computed in int16 and packed with unsigned saturation, and the sum is
-/// saturated at 255 (min(255, H + G) as in matching_cost). d ≥ valid gets the invalid cost.
+/// saturated at 255 (min(255, H + G) as in matching_cost). valid ≤ d < D gets the out-of-image
+/// cost, d ≥ D the padding cost.
 void cost_row_avx512(const CostInputs& in, const ReversedRightRow& right, int x_begin, int x_end,
                      std::uint8_t* out) {
   const int y = right.y;
@@ -59,7 +60,8 @@ void cost_row_avx512(const CostInputs& in, const ReversedRightRow& right, int x_
   const std::int16_t* gl = in.gradient_l->ptr<std::int16_t>(y);
   const __m512i cap = _mm512_set1_epi16(static_cast<short>(in.grad_cap));
   const __m512i lq4 = _mm512_set1_epi16(static_cast<short>(in.lambda_q4));
-  const __m512i invalid = _mm512_set1_epi8(static_cast<char>(in.invalid));
+  const __m512i out_of_image = _mm512_set1_epi8(static_cast<char>(in.out_of_image));
+  const __m512i padding = _mm512_set1_epi8(static_cast<char>(in.padding));
   // Byte 16j + i of the result: byte 0 of qword i of h_2j (i < 8) or of qword i − 8 of h_2j+1.
   alignas(64) std::uint8_t gather[64];
   for (int p = 0; p < 64; ++p) {
@@ -78,6 +80,8 @@ void cost_row_avx512(const CostInputs& in, const ReversedRightRow& right, int x_
     const __m512i g_l = _mm512_set1_epi16(gl[x]);
     for (int d0 = 0; d0 < dp; d0 += 64) {
       const __mmask64 store = first_bytes(dp - d0);
+      // Lanes without a match: out-of-image below D, padding from D on.
+      const __m512i invalid = _mm512_mask_blend_epi8(first_bytes(d_max - d0), padding, out_of_image);
       if (d0 >= valid) {
         _mm512_mask_storeu_epi8(c + d0, store, invalid);
         continue;

@@ -65,6 +65,8 @@ void validate_sgm_input(const cv::Mat& left, const cv::Mat& right, const SgmConf
               std::to_string(c.census_height) + " must be odd x odd with at most 65 pixels");
   require(c.lambda_grad >= 0.0 && c.lambda_grad <= 8.0, "lambda_grad must be in [0, 8]");
   require(c.grad_cap >= 0 && c.grad_cap <= 255, "grad_cap must be in [0, 255]");
+  require(c.out_of_image_cost >= 0.0 && c.out_of_image_cost <= 1.0,
+          "out_of_image_cost must be in [0, 1] (a share of the largest matching cost)");
   require(c.paths == 4 || c.paths == 8, "paths must be 4 or 8");
   require(c.p1 >= 0 && c.p2 >= c.p1 && c.p2 <= 7900, "penalties need 0 <= p1 <= p2 <= 7900");
   require(c.p2_slope >= 0.0, "p2_slope must be >= 0");

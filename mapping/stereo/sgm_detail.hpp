@@ -46,17 +46,24 @@ inline int matching_cost(std::uint64_t census_l, std::uint64_t census_r, int gra
   return std::min(255, ham + gradient_cost(grad_l - grad_r, grad_cap, lambda_q4));
 }
 
-/// Cost of a disparity whose match q = p − d falls left of the right image: the largest cost.
-inline int out_of_image_cost(const SgmConfig& c) {
+/// The largest cost of Eq. 1, C_max = min(255, w·h − 1 + λ_grad·cap); also the cost of the
+/// padding lanes d ≥ max_disparity (outside the search range: they never win).
+inline int largest_cost(const SgmConfig& c) {
   return std::min(255, c.census_width * c.census_height - 1 +
                            gradient_cost(c.grad_cap, c.grad_cap, lambda_q4(c.lambda_grad)));
+}
+
+/// Cost of a disparity d < max_disparity whose match q = p − d falls left of the right image:
+/// round(SgmConfig::out_of_image_cost · C_max), a neutral cost (the match is unobservable).
+inline int out_of_image_cost(const SgmConfig& c) {
+  return static_cast<int>(std::lround(std::clamp(c.out_of_image_cost, 0.0, 1.0) * largest_cost(c)));
 }
 
 /// Whether the path costs fit in uint8: L_r(p, d) = C(p, d) + min(…) − min_k L_r(p − r, k) lies in
 /// [C, C + P2], so every L_r ≤ 255 when the largest cost + P2 ≤ 255 (the SIMD kernels then keep
 /// their row buffers in uint8: 64 disparities per AVX-512 vector, 32 per AVX2 one; the sums stay
 /// uint16). True for the defaults (62 + 15 + 120 = 197).
-inline bool narrow_entries_fit(const SgmConfig& c) { return out_of_image_cost(c) + c.p2 <= 255; }
+inline bool narrow_entries_fit(const SgmConfig& c) { return largest_cost(c) + c.p2 <= 255; }
 
 /// Per-pixel P2 for an intensity step |I(p) − I(p − r)| along a path (P2 adaptation):
 /// P2' = max(P1, round(P2 − slope·|ΔI|)), or P2 when adaptation is off. Indexed by |ΔI| ∈ [0, 255].
@@ -89,7 +96,8 @@ struct CostInputs {
   const cv::Mat* gradient_r = nullptr;
   int max_disparity = 0, dp = 0;        ///< D and D rounded up to 16 (padded_disparities)
   int grad_cap = 0, lambda_q4 = 0;      ///< cap and round(16 λ_grad) of gradient_cost
-  std::uint8_t invalid = 0;             ///< out_of_image_cost
+  std::uint8_t out_of_image = 0;        ///< out_of_image_cost: x − d < 0, d < max_disparity
+  std::uint8_t padding = 0;             ///< largest_cost: d ≥ max_disparity
 };
 CostInputs cost_inputs(const CensusImage& census_l, const CensusImage& census_r,
                        const cv::Mat& gradient_l, const cv::Mat& gradient_r,
@@ -107,7 +115,8 @@ struct ReversedRightRow {
 
 /// Costs of pixels x ∈ [x_begin, x_end) of row y (= right.y, loaded):
 /// out[(x − x_begin)·D_p + d] = C(x, y, d) as uint8 (Eq. 1, matching_cost),
-/// out_of_image_cost for d ≥ max_disparity and for matches left of the right image (x − d < 0).
+/// out_of_image_cost for matches left of the right image (x − d < 0, d < max_disparity) and
+/// largest_cost for the padding d ≥ max_disparity.
 using CostRowFunction = void (*)(const CostInputs& in, const ReversedRightRow& right,
                                  int x_begin, int x_end, std::uint8_t* out);
 /// The build's baseline: AVX2 (nibble-table popcount, 16 disparities per vector) or portable C++.

@@ -46,8 +46,8 @@ cv::Mat compute_disparity_reference(const cv::Mat& left, const cv::Mat& right,
     for (int x = 0; x < W; ++x)
       for (int d = 0; d < DP; ++d)
         C[idx(x, y, d)] =
-            (d >= D || x - d < 0)
-                ? detail::out_of_image_cost(c)
+            d >= D       ? detail::largest_cost(c)
+            : x - d < 0  ? detail::out_of_image_cost(c)
                 : detail::matching_cost(cen_l[static_cast<std::size_t>(y) * W + x],
                                         cen_r[static_cast<std::size_t>(y) * W + x - d],
                                         grad_l.at<std::int16_t>(y, x),

@@ -167,7 +167,8 @@ TEST(SgmKernels, BothRowBufferWidthsAreCoveredByTheVariants) {
 }
 
 /// Every cost-row kernel the machine runs gives matching_cost (Eq. 1) for every pixel and
-/// disparity, out_of_image_cost left of the right image and for the padding d ≥ D. Each image is
+/// disparity, out_of_image_cost left of the right image and largest_cost for the padding d ≥ D
+/// (d_max 37 and 100 have padding lanes; 16 … 128 with the out-of-image shares below). Each image is
 /// 150 px wide so that the left border (x < D) and whole-row chunks are both covered.
 TEST(SgmKernels, CostRowsMatchTheScalarFormula) {
   cv::Mat left(9, 150, CV_8UC1), right(9, 150, CV_8UC1);
@@ -177,10 +178,12 @@ TEST(SgmKernels, CostRowsMatchTheScalarFormula) {
   for (const int d_max : {16, 37, 64, 100, 128}) {
     for (const auto& [lambda, cap] : {std::pair{0.5, 30}, std::pair{8.0, 30}, std::pair{1.5, 63},
                                       std::pair{0.75, 200}}) {
+     for (const double share : {0.0, 0.3, 1.0}) {
       SgmConfig c;
       c.max_disparity = d_max;
       c.lambda_grad = lambda;  // 8: the gradient term alone saturates the uint8 cost
       c.grad_cap = cap;
+      c.out_of_image_cost = share;
       const auto census_l = detail::census_transform(left, 9, 7, 1);
       const auto census_r = detail::census_transform(right, 9, 7, 1);
       const cv::Mat grad_l = detail::epipolar_gradient(left);
@@ -201,8 +204,8 @@ TEST(SgmKernels, CostRowsMatchTheScalarFormula) {
           for (int x = 0; x < left.cols; ++x)
             for (int d = 0; d < in.dp; ++d) {
               const int expected =
-                  (d >= d_max || x - d < 0)
-                      ? detail::out_of_image_cost(c)
+                  d >= d_max  ? detail::largest_cost(c)
+                  : x - d < 0 ? detail::out_of_image_cost(c)
                       : detail::matching_cost(census_l.at(x, y), census_r.at(x - d, y),
                                               grad_l.at<std::int16_t>(y, x),
                                               grad_r.at<std::int16_t>(y, x - d), c.grad_cap,
@@ -212,12 +215,13 @@ TEST(SgmKernels, CostRowsMatchTheScalarFormula) {
               saturated += expected == 255 ? 1 : 0;
             }
         }
-        EXPECT_EQ(mismatches, 0) << "D " << d_max << " lambda " << lambda << " cap " << cap << " kernel "
+        EXPECT_EQ(mismatches, 0) << "D " << d_max << " lambda " << lambda << " cap " << cap << " share " << share << " kernel "
                                  << (kernel == &detail::cost_row ? "baseline" : "avx512");
-        if (detail::out_of_image_cost(c) == 255) {  // the saturation is exercised
+        if (detail::largest_cost(c) == 255) {  // the saturation is exercised
           EXPECT_GT(saturated, 0);
         }
       }
+     }
     }
   }
 }
@@ -288,6 +292,36 @@ TEST_P(SgmScene, FrontoParallelSubpixelShift) {
     }
   ASSERT_GT(n, 1000);
   EXPECT_LT(err_sub / n, 0.8 * err_int / n);
+}
+
+/// The left border strip x < d has no match in the right image. Its out-of-image disparities
+/// (d > x) cost SgmConfig::out_of_image_cost · C_max: at the default share (neutral, about an
+/// ordinary match) the strip keeps the plane's disparity, which falls outside the image and is
+/// reported invalid, and the columns beside it are right. At C_max (share 1, the former cost)
+/// the paths force the strip onto the few disparities still inside the image: false matches.
+/// (Without the left-right check and speckle filter, which hide part of them afterwards.)
+TEST_P(SgmScene, LeftBorderStripIsNotForcedOntoDisparitiesInsideTheImage) {
+  constexpr float kD = 28.0f;
+  const auto pair = render(160, 80, [](int, int) { return kD; }, 6);
+  const auto false_matches_in_strip = [&](const cv::Mat& d) {
+    int n = 0;
+    for (int y = 0; y < d.rows; ++y)
+      for (int x = 0; x < static_cast<int>(kD); ++x) n += std::isnan(d.at<float>(y, x)) ? 0 : 1;
+    return n;
+  };
+  SgmConfig neutral = config();
+  neutral.lr_check = false;
+  neutral.speckle_window_size = 0;
+  SgmConfig largest = neutral;
+  largest.out_of_image_cost = 1.0;
+  const cv::Mat with_neutral = compute_disparity(pair.left, pair.right, neutral);
+  const cv::Mat with_largest = compute_disparity(pair.left, pair.right, largest);
+  const int strip = static_cast<int>(kD) * pair.left.rows;
+  const int neutral_false = false_matches_in_strip(with_neutral);
+  const int largest_false = false_matches_in_strip(with_largest);
+  EXPECT_LE(neutral_false, 0.1 * strip);   // measured 98 (8 paths) and 115 (4) of 2240
+  EXPECT_GE(largest_false, 0.9 * strip);   // measured: all 2240
+  EXPECT_GE(fraction_correct(with_neutral, pair.truth, 1.0f), 0.97);
 }
 
 TEST_P(SgmScene, SlantedPlane) {
