@@ -59,7 +59,7 @@ double covered_fraction(const Plane3& plane, std::span<const Eigen::Vector3f> ve
   const auto ring = project_to_basis(vertices, basis);
   Eigen::Vector2d lo = ring.front(), hi = ring.front();
   for (const auto& p : ring) lo = lo.cwiseMin(p), hi = hi.cwiseMax(p);
-  std::vector<std::vector<Eigen::Vector2d>> rings;
+  std::vector<BoxedRing> rings;
   rings.reserve(covering.size());
   for (const auto polygon : covering) {
     if (polygon.size() < 3) continue;
@@ -67,14 +67,14 @@ double covered_fraction(const Plane3& plane, std::span<const Eigen::Vector3f> ve
     Eigen::Vector2d olo = r.front(), ohi = r.front();
     for (const auto& p : r) olo = olo.cwiseMin(p), ohi = ohi.cwiseMax(p);
     if ((olo.array() <= hi.array()).all() && (ohi.array() >= lo.array()).all())
-      rings.push_back(std::move(r));
+      rings.emplace_back(std::move(r));
   }
   if (rings.empty()) return 0.0;
   return covered_fraction(
       plane, vertices,
       [&](const Eigen::Vector2d& st, const PlaneBasis&) {
         return std::any_of(rings.begin(), rings.end(),
-                           [&](const auto& r) { return point_in_ring(r, st); });
+                           [&](const BoxedRing& r) { return r.contains(st); });
       },
       samples);
 }

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <limits>
 #include <numbers>
+#include <unordered_set>
 
 #include "core/error.hpp"
 #include "mapping/map/geometry.hpp"
@@ -230,6 +231,7 @@ EdgeEvaluation CrfMerger::evaluate(const MergeUnit& a, const LabelState& label_a
   }
   ev.colour_similarity = colour_similarity(lo.histogram, hi.histogram);
   ev.in_range = in_range && ev.colour_similarity >= config_.min_colour_similarity;
+  if (!ev.in_range) return ev;  // never merged: the gain only orders the edges in range
   // Energy gained (the greedy's visiting order): δ + φ + ψ of the edge's two cells.
   const double sigma = config_.residual_scale_m;
   const double delta_a = colour_similarity(a.histogram ? *a.histogram : label_a.histogram, label_b.histogram);
@@ -253,8 +255,10 @@ std::vector<std::pair<std::uint32_t, std::uint32_t>> CrfMerger::merge(
     std::size_t edge;
   };
   std::vector<Candidate> candidates;
+  std::unordered_set<std::uint32_t> changed;  // labels whose state changed in this round
   for (int round = 0; round < 64; ++round) {
     candidates.clear();
+    changed.clear();
     for (std::size_t e = 0; e < edges.size(); ++e) {
       const auto& edge = edges[e];
       const std::uint32_t la = union_find.find(units[edge.a].label);
@@ -272,11 +276,14 @@ std::vector<std::pair<std::uint32_t, std::uint32_t>> CrfMerger::merge(
       const std::uint32_t la = union_find.find(units[edge.a].label);
       const std::uint32_t lb = union_find.find(units[edge.b].label);
       if (la == lb) continue;
-      // Planes may have moved since the round started: re-check the variation range.
-      if (!evaluate(units[edge.a], labels.at(la), units[edge.b], labels.at(lb), edge.boundary_m).in_range)
+      // Planes may have moved since the round started: re-check the variation range (unless
+      // neither label changed since the round's evaluation, which then still holds).
+      if ((changed.contains(la) || changed.contains(lb)) &&
+          !evaluate(units[edge.a], labels.at(la), units[edge.b], labels.at(lb), edge.boundary_m).in_range)
         continue;
       const std::uint32_t root = union_find.unite(la, lb);
       const std::uint32_t absorbed = root == la ? lb : la;
+      changed.insert(root);
       fold_label(labels.at(root), labels.at(absorbed));
       labels.erase(absorbed);
       merges.emplace_back(absorbed, root);

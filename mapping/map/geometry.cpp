@@ -65,6 +65,10 @@ bool point_in_ring(std::span<const Eigen::Vector2d> ring, const Eigen::Vector2d&
   return in;
 }
 
+BoxedRing::BoxedRing(std::vector<Eigen::Vector2d> ring) : points(std::move(ring)) {
+  for (const auto& p : points) box.extend(p);
+}
+
 Polygon2 to_polygon2(std::span<const Eigen::Vector3f> vertices, const PlaneBasis& basis) {
   Polygon2 poly;
   for (const auto& v : vertices) {
@@ -132,12 +136,18 @@ bool polygons_within_m(const Plane3& plane_a, std::span<const Eigen::Vector3f> a
       const Eigen::Vector3d outside =
           (box.min - v).cwiseMax(v - box.max).cwiseMax(Eigen::Vector3d::Zero());
       if (outside.norm() > max_m || std::abs(plane.signed_distance(v)) > max_m) continue;
+      // The polygon's distance is min(edge distances), or |plane distance| (≤ max_m, checked above)
+      // when v projects inside it: within max_m iff an edge is, or v projects inside.
+      for (std::size_t k = 0; k < to.size(); ++k)
+        if (point_segment_distance(v, to[k].cast<double>(), to[(k + 1) % to.size()].cast<double>()) <= max_m)
+          return true;
       if (!outline) {
         PlaneBasis basis = make_basis(plane, to[0].cast<double>());
         Polygon2 poly = to_polygon2(to, basis);
         outline.emplace(std::move(basis), std::move(poly));
       }
-      if (distance_to_outline(v, plane, outline->first, outline->second, to) <= max_m) return true;
+      const Eigen::Vector2d st = outline->first.to_2d(v);
+      if (bg::covered_by(Point2(st.x(), st.y()), outline->second)) return true;
     }
     return false;
   };

@@ -67,6 +67,17 @@ std::vector<Eigen::Vector2d> project_to_basis(std::span<const Eigen::Vector3f> v
 /// Even-odd rule: is `p` inside the ring (either orientation, closing vertex optional)?
 bool point_in_ring(std::span<const Eigen::Vector2d> ring, const Eigen::Vector2d& p);
 
+/// A ring with its bounding box: contains(p) = point_in_ring(points, p), the crossing test run only
+/// for points inside the box (a ring lies inside its box, so the answer is the same).
+struct BoxedRing {
+  std::vector<Eigen::Vector2d> points;
+  Eigen::AlignedBox2d box;
+  explicit BoxedRing(std::vector<Eigen::Vector2d> ring);
+  bool contains(const Eigen::Vector2d& p) const {
+    return points.size() >= 3 && box.contains(p) && point_in_ring(points, p);
+  }
+};
+
 /// Distance (m) of `point` to the planar polygon `vertices` lying on `plane`:
 ///   the paper's point-to-plane distance |n·p + e| when p's projection onto the plane falls inside
 ///   the polygon; otherwise the distance to the nearest point of the polygon's boundary edges.

@@ -92,15 +92,15 @@ struct Coverage {
 /// and the surface that covers most grid points (a stored cell counts for its surface).
 Coverage coverage_of(const Planecell& cell, std::span<const MapCell* const> cells,
                      std::span<const Surface* const> surfaces) {
-  std::vector<std::vector<Eigen::Vector2d>> rings;  // the cells projected into cell's basis
+  std::vector<BoxedRing> rings;  // the cells projected into cell's basis
   std::map<std::uint32_t, int> hits;  // by surface id: ties go to the oldest surface
   Coverage c;
   c.fraction = covered_fraction(cell.plane, cell.vertices_m, [&](const Eigen::Vector2d& st, const PlaneBasis& basis) {
     if (rings.size() != cells.size())
-      for (const MapCell* old : cells) rings.push_back(project_to_basis(old->vertices_m, basis));
+      for (const MapCell* old : cells) rings.emplace_back(project_to_basis(old->vertices_m, basis));
     bool any = false;
     for (std::size_t i = 0; i < cells.size(); ++i)
-      if (rings[i].size() >= 3 && point_in_ring(rings[i], st)) {
+      if (rings[i].contains(st)) {
         ++hits[cells[i]->surface];
         any = true;
         break;
