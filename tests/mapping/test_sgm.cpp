@@ -423,6 +423,16 @@ TEST(SgmBadInput, ThrowsClearErrors) {
   bad = c;
   bad.paths = 6;
   EXPECT_THROW(compute_disparity(image, image, bad), ConfigError);
+  for (const double share : {-0.1, 1.5, std::numeric_limits<double>::quiet_NaN()}) {
+    bad = c;
+    bad.out_of_image_cost = share;
+    try {
+      compute_disparity(image, image, bad);
+      ADD_FAILURE() << "out_of_image_cost " << share << " accepted";
+    } catch (const ConfigError& e) {
+      EXPECT_NE(std::string(e.what()).find("sgm.out_of_image_cost"), std::string::npos) << e.what();
+    }
+  }
 }
 
 }  // namespace
