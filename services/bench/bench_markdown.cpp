@@ -3,6 +3,7 @@
 #include <cmath>
 #include <sstream>
 
+#include "services/eval/stereo_metrics.hpp"
 #include "services/report/markdown.hpp"
 
 namespace planecell::services::bench {
@@ -52,8 +53,6 @@ std::vector<std::string> latency_row(const std::string& name, const LatencySumma
 /// The paper's own figures (planecell.tex: introduction, §6 "Evaluation and Discussion", Table 1).
 constexpr double kPaperExtractionS = 0.2;  ///< single core, about 700 planecells per frame
 constexpr double kPaperMergeS = 0.1;       ///< CRF aggregation per frame
-/// Table 1, planecell on SGBM disparity (KITTI stereo): % of GT pixels within 10/20/50/100 cm.
-constexpr double kPaperTable1Sgbm[] = {33.49, 50.23, 72.91, 80.84};
 
 /// p50 of a stage, NaN when the stage did not run.
 double stage_p50(const BenchReport& r, const std::string& stage) {
@@ -143,9 +142,9 @@ std::string format_markdown(const BenchReport& r) {
              bytes(static_cast<double>(mem.planecell_store_bytes) / per_frame) + " in the store"}};
     if (!r.frame_scores.empty())
       rows.push_back({"planecell within 10 / 20 / 50 / 100 cm (Table 1, SGBM input)",
-                      number(kPaperTable1Sgbm[0], 2) + " / " + number(kPaperTable1Sgbm[1], 2) +
-                          " / " + number(kPaperTable1Sgbm[2], 2) + " / " +
-                          number(kPaperTable1Sgbm[3], 2) + " %",
+                      number(eval::kPaperTable1SgbmPct[0], 2) + " / " + number(eval::kPaperTable1SgbmPct[1], 2) +
+                          " / " + number(eval::kPaperTable1SgbmPct[2], 2) + " / " +
+                          number(eval::kPaperTable1SgbmPct[3], 2) + " %",
                       pct(c, 0.1) + " / " + pct(c, 0.2) + " / " + pct(c, 0.5) + " / " + pct(c, 1.0) +
                           " % (planecell SGM input)"});
     md << report::table({"figure", "paper", "this run"}, rows) << again;

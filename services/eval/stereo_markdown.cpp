@@ -81,6 +81,10 @@ std::string format_markdown(const std::string& dataset, const std::string& comma
       if (m.points.gt_pixels > 0) rows.push_back(points_row(pair.pair, m));
   for (const auto& m : pooled)
     if (m.points.gt_pixels > 0) rows.push_back(points_row("**pooled**", m));
+  std::vector<std::string> paper = {"paper Table 1 (its KITTI frames)", "SGBM + planecell"};
+  for (double pct : kPaperTable1SgbmPct) paper.push_back(number(pct, 2));
+  paper.push_back("–");
+  rows.push_back(paper);
   md << report::table(points_header, rows) << report::regenerate(command);
   return md.str();
 }
