@@ -14,15 +14,14 @@ namespace {
 
 constexpr double kDegToRad = std::numbers::pi / 180.0;
 
-/// (ω, τ) taking `from` to `to` under apply_correction: R(ω) = R_to R_fromᵀ, τ = t_to − t_from.
-Vector6 correction_between(const Pose& from, const Pose& to) {
+}  // namespace
+
+Eigen::Matrix<double, 6, 1> correction_between(const Pose& from, const Pose& to) {
   const Eigen::AngleAxisd rotation(to.linear() * from.linear().transpose());
   Vector6 out;
   out << rotation.angle() * rotation.axis(), to.translation() - from.translation();
   return out;
 }
-
-}  // namespace
 
 std::string to_string(RefineStatus status) {
   switch (status) {

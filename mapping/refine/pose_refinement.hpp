@@ -29,6 +29,9 @@ std::string to_string(RefineStatus status);
 /// a rotation about the camera centre followed by a translation, so ω and τ do not trade off
 /// through the lever arm to the world origin.
 Pose apply_correction(const Pose& T_world_cam_input, const Eigen::Matrix<double, 6, 1>& correction);
+/// The correction (ω, τ) taking `from` to `to` under apply_correction: R(ω) = R_to R_fromᵀ,
+/// τ = t_to − t_from (|ω| the rotation angle, rad; |τ| the camera displacement, m).
+Eigen::Matrix<double, 6, 1> correction_between(const Pose& from, const Pose& to);
 
 struct PoseRefinement {
   Pose refined = Pose::Identity();  ///< T_world_cam after refinement (= input unless kRefined)

@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <cmath>
 #include <iomanip>
-#include <Eigen/Geometry>
 #include <numbers>
 #include <iostream>
 #include <limits>
@@ -18,6 +17,7 @@
 #include "io/image_io.hpp"
 #include "io/kitti_odometry.hpp"
 #include "io/map_store.hpp"
+#include "mapping/refine/pose_refinement.hpp"
 #include "services/commands/commands.hpp"
 
 namespace planecell::services {
@@ -243,11 +243,11 @@ std::string describe_map_store(const fs::path& path) {
     const auto pose = store.pose(id);
     if (!input || !pose) continue;
     ++refined;
-    const double moved_m = (pose->translation() - input->translation()).norm();
+    const auto correction = refine::correction_between(*input, *pose);  // (ω rad, τ m)
+    const double moved_m = correction.tail<3>().norm();
     sum_m += moved_m;
     max_m = std::max(max_m, moved_m);
-    max_deg = std::max(max_deg, Eigen::AngleAxisd(input->linear().transpose() * pose->linear()).angle() *
-                                    180.0 / std::numbers::pi);
+    max_deg = std::max(max_deg, correction.head<3>().norm() * 180.0 / std::numbers::pi);
   }
   if (refined > 0)
     out << "  refinement:   " << refined << " of " << store.frame_count()
