@@ -56,18 +56,13 @@ double covered_fraction(const Plane3& plane, std::span<const Eigen::Vector3f> ve
                         std::span<const std::span<const Eigen::Vector3f>> covering, int samples) {
   if (covering.empty() || vertices.size() < 3) return 0.0;
   const PlaneBasis basis = make_basis(plane, vertex_centroid(vertices));
-  const auto ring = project_to_basis(vertices, basis);
-  Eigen::Vector2d lo = ring.front(), hi = ring.front();
-  for (const auto& p : ring) lo = lo.cwiseMin(p), hi = hi.cwiseMax(p);
-  std::vector<BoxedRing> rings;
+  const BoxedRing own(project_to_basis(vertices, basis));
+  std::vector<BoxedRing> rings;  // the covering polygons whose box meets the cell's
   rings.reserve(covering.size());
   for (const auto polygon : covering) {
     if (polygon.size() < 3) continue;
-    auto r = project_to_basis(polygon, basis);
-    Eigen::Vector2d olo = r.front(), ohi = r.front();
-    for (const auto& p : r) olo = olo.cwiseMin(p), ohi = ohi.cwiseMax(p);
-    if ((olo.array() <= hi.array()).all() && (ohi.array() >= lo.array()).all())
-      rings.emplace_back(std::move(r));
+    BoxedRing r(project_to_basis(polygon, basis));
+    if (r.box.intersects(own.box)) rings.push_back(std::move(r));
   }
   if (rings.empty()) return 0.0;
   return covered_fraction(
