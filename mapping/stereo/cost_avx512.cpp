@@ -60,8 +60,12 @@ void cost_row_avx512(const CostInputs& in, const ReversedRightRow& right, int x_
   const std::int16_t* gl = in.gradient_l->ptr<std::int16_t>(y);
   const __m512i cap = _mm512_set1_epi16(static_cast<short>(in.grad_cap));
   const __m512i lq4 = _mm512_set1_epi16(static_cast<short>(in.lambda_q4));
+  // Lanes without a match, per 64-lane block: out-of-image below D, padding from D on (only the
+  // last block can hold padding: D_p − D < 16).
   const __m512i out_of_image = _mm512_set1_epi8(static_cast<char>(in.out_of_image));
-  const __m512i padding = _mm512_set1_epi8(static_cast<char>(in.padding));
+  const int last_block = (dp - 1) / 64 * 64;
+  const __m512i last_invalid = _mm512_mask_blend_epi8(
+      first_bytes(d_max - last_block), _mm512_set1_epi8(static_cast<char>(in.padding)), out_of_image);
   // Byte 16j + i of the result: byte 0 of qword i of h_2j (i < 8) or of qword i − 8 of h_2j+1.
   alignas(64) std::uint8_t gather[64];
   for (int p = 0; p < 64; ++p) {
@@ -80,8 +84,7 @@ void cost_row_avx512(const CostInputs& in, const ReversedRightRow& right, int x_
     const __m512i g_l = _mm512_set1_epi16(gl[x]);
     for (int d0 = 0; d0 < dp; d0 += 64) {
       const __mmask64 store = first_bytes(dp - d0);
-      // Lanes without a match: out-of-image below D, padding from D on.
-      const __m512i invalid = _mm512_mask_blend_epi8(first_bytes(d_max - d0), padding, out_of_image);
+      const __m512i invalid = d0 == last_block ? last_invalid : out_of_image;
       if (d0 >= valid) {
         _mm512_mask_storeu_epi8(c + d0, store, invalid);
         continue;

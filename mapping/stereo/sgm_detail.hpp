@@ -56,7 +56,7 @@ inline int largest_cost(const SgmConfig& c) {
 /// Cost of a disparity d < max_disparity whose match q = p − d falls left of the right image:
 /// round(SgmConfig::out_of_image_cost · C_max), a neutral cost (the match is unobservable).
 inline int out_of_image_cost(const SgmConfig& c) {
-  return static_cast<int>(std::lround(std::clamp(c.out_of_image_cost, 0.0, 1.0) * largest_cost(c)));
+  return static_cast<int>(std::lround(c.out_of_image_cost * largest_cost(c)));  // share checked in [0, 1]
 }
 
 /// Whether the path costs fit in uint8: L_r(p, d) = C(p, d) + min(…) − min_k L_r(p − r, k) lies in
