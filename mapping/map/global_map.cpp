@@ -218,14 +218,18 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
     }
   } else {
     SpatialIndex frame_index(config_.index_cell_m);
+    std::vector<Aabb> fresh_box(fresh.size());  // each new cell's bounds, computed once
+    for (std::size_t k = 0; k < fresh.size(); ++k) {
+      fresh_box[k] = bounds_of(fresh[k]->vertices_m);
+      frame_index.insert(static_cast<std::uint32_t>(k), fresh_box[k]);
+    }
+    const auto box_of = [&](std::uint32_t j) { return fresh_box[j]; };
     for (std::size_t k = 0; k < fresh.size(); ++k)
-      frame_index.insert(static_cast<std::uint32_t>(k), bounds_of(fresh[k]->vertices_m));
-    const auto box_of = [&](std::uint32_t j) { return bounds_of(fresh[j]->vertices_m); };
-    for (std::size_t k = 0; k < fresh.size(); ++k)
-      for (std::uint32_t j : frame_index.query(bounds_of(fresh[k]->vertices_m).inflated(gap), box_of)) {
+      for (std::uint32_t j : frame_index.query(fresh_box[k].inflated(gap), box_of)) {
         if (j <= k) continue;
-        if (polygon_gap_m(fresh[k]->plane, fresh[k]->vertices_m, fresh[j]->plane,
-                          fresh[j]->vertices_m) > gap)
+        // Within the gap (polygons_within_m: early exit), not the whole polygon_gap_m.
+        if (!polygons_within_m(fresh[k]->plane, fresh[k]->vertices_m, fresh[j]->plane,
+                               fresh[j]->vertices_m, gap))
           continue;
         edges.push_back({static_cast<std::uint32_t>(k), j,
                          std::sqrt(std::min(fresh_area[k], fresh_area[j]))});
