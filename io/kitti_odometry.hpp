@@ -71,8 +71,9 @@ KittiOdometrySequence open_kitti_odometry(const std::filesystem::path& sequence_
                                           const std::optional<std::filesystem::path>& poses_file =
                                               std::nullopt);
 
-/// Loads frame `index`: decodes both images (colour BGR), checks equal sizes, attaches the
-/// camera, timestamp and pose. Throws InputError naming the image on failure.
+/// Loads frame `index`: decodes both images (colour BGR; the right one on a second thread at the
+/// same time), checks equal sizes, attaches the camera, timestamp and pose. Throws InputError
+/// naming the image on failure.
 StereoFrame load_kitti_frame(const KittiOdometrySequence& sequence, std::size_t index);
 
 }  // namespace planecell::io

@@ -9,9 +9,11 @@ namespace planecell {
 /// → publish) joined by bounded single-producer/single-consumer queues.
 struct PipelineConfig {
   int queue_capacity = 2;  ///< frames waiting between two stages (≥ 1); bounds memory and latency
-  /// SGM worker threads while pipelined (0 = keep sgm.threads). The extract stage runs at the same
-  /// time as SGM, so 1 keeps two busy threads on a 2-core machine instead of three.
-  int sgm_threads = 1;
+  /// SGM worker threads while pipelined (0 = keep sgm.threads). SGM is the longest stage; with 2
+  /// its half-passes use whichever core extract and load leave idle. On the 2-core machine at
+  /// 10 Hz (1242×375) this cut end-to-end p50 from ~145 to ~115 ms and p99 from 188–247 to
+  /// 152–217 ms (docs/PERFORMANCE.md, "Streaming pipeline").
+  int sgm_threads = 2;
   double stats_period_s = 1.0;  ///< how often the daemon publishes map stats (s)
   /// Freed heap memory the process keeps for the next frame instead of returning it to the kernel
   /// (MB; glibc trim threshold, see services/pipeline/heap_tuning.hpp; 0 = allocator defaults).

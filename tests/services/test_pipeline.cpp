@@ -38,7 +38,7 @@ class PipelineTest : public ::testing::Test {
 
 TEST_F(PipelineTest, ThreadedReplayBuildsTheSameMapAsTheSingleThreadedOne) {
   AppConfig single_config = config_;
-  single_config.sgm.threads = 2;  // the pipeline runs SGM on pipeline.sgm_threads = 1
+  single_config.sgm.threads = 1;  // the pipeline runs SGM on pipeline.sgm_threads = 2
   const ReplayReport single = run_replay(options("single.db", false), single_config);
   const ReplayReport threaded = run_replay(options("threaded.db", true), config_);
   EXPECT_EQ(threaded.frames, 6u);
