@@ -15,6 +15,12 @@ struct PipelineConfig {
   /// 152–217 ms (docs/PERFORMANCE.md, "Streaming pipeline").
   int sgm_threads = 2;
   double stats_period_s = 1.0;  ///< how often the daemon publishes map stats (s)
+  /// Frame size the daemon (`planecell run`) warms its sgm and extract stages up with before it
+  /// listens (Pipeline::warm_up): without it the first frames pay ~0.5 s of first-touch page
+  /// faults and lazy set-up and the next ones queue behind them. Default: KITTI's 1242×375;
+  /// 0 = no warm-up. Replay warms up with its sequence's own size.
+  int warm_up_width = 1242;
+  int warm_up_height = 375;
   /// Freed heap memory the process keeps for the next frame instead of returning it to the kernel
   /// (MB; glibc trim threshold, see services/pipeline/heap_tuning.hpp; 0 = allocator defaults).
   /// Saves ~3000 page faults (~8 ms CPU) per 1242×375 frame for a few tens of MB of RSS.
@@ -26,6 +32,8 @@ void visit_fields(PipelineConfig& c, Visitor&& visit) {
   visit("queue_capacity", c.queue_capacity);
   visit("sgm_threads", c.sgm_threads);
   visit("stats_period_s", c.stats_period_s);
+  visit("warm_up_width", c.warm_up_width);
+  visit("warm_up_height", c.warm_up_height);
   visit("heap_retain_mb", c.heap_retain_mb);
 }
 

@@ -154,6 +154,13 @@ void add_run_command(CLI::App& app, CommandContext& context) {
         publish_message(*lcm, config.lcm.map_update_channel, chunk);
     };
     Pipeline pipeline(config, PipelineMode::kLive, std::move(map), store.get(), nullptr, sinks);
+    if (config.pipeline.warm_up_width > 0 && config.pipeline.warm_up_height > 0) {
+      const auto start = std::chrono::steady_clock::now();
+      pipeline.warm_up(config.pipeline.warm_up_width, config.pipeline.warm_up_height);
+      spdlog::debug("run: warmed up with a {}x{} frame in {:.0f} ms", config.pipeline.warm_up_width,
+                    config.pipeline.warm_up_height,
+                    std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count());
+    }
     Intake intake(pipeline, committed);
     lcm->subscribe(config.lcm.stereo_channel, &Intake::on_stereo, &intake);
     lcm->subscribe(config.lcm.pose_channel, &Intake::on_pose, &intake);

@@ -90,6 +90,12 @@ Pipeline::Pipeline(const AppConfig& config, PipelineMode mode, map::GlobalMap ma
   if (config_.pipeline.sgm_threads < 0)
     throw ConfigError("pipeline.sgm_threads = " + std::to_string(config_.pipeline.sgm_threads) +
                       ": must be 0 (use sgm.threads) or positive");
+  const auto& pc = config_.pipeline;
+  if (pc.warm_up_width < 0 || pc.warm_up_height < 0 ||
+      static_cast<double>(pc.warm_up_width) * pc.warm_up_height > config_.sgm.max_image_pixels)
+    throw ConfigError("pipeline.warm_up_width x warm_up_height = " + std::to_string(pc.warm_up_width) + "x" +
+                      std::to_string(pc.warm_up_height) + ": must be 0 (no warm-up) or a frame size within " +
+                      "sgm.max_image_pixels");
   SgmConfig sgm = config_.sgm;
   if (config_.pipeline.sgm_threads > 0) sgm.threads = config_.pipeline.sgm_threads;
 
@@ -271,6 +277,7 @@ void Pipeline::publish_loop() {
     }
     const double e2e_ms =
         std::chrono::duration<double, std::milli>(StageClock::now() - item->ingest_time).count();
+    spdlog::debug("pipeline: frame {} done, end to end {:.1f} ms", item->frame_id, e2e_ms);
     const std::lock_guard lock(stats_mutex_);
     for (const auto& [stage, ms] : item->stage_ms) latency_.add(stage, ms);
     latency_.add("end_to_end", e2e_ms);

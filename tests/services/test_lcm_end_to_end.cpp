@@ -114,7 +114,8 @@ class LcmEndToEndTest : public ::testing::Test {
     test::write_small_street(scratch_ / "seq", 6, 11);
     std::ofstream(scratch_ / "config.yaml") << "sgm:\n  max_disparity: 48\n"
                                                "extraction:\n  target_cells: 150\n"
-                                               "pipeline:\n  queue_capacity: 8\n  stats_period_s: 0.5\n";
+                                               "pipeline:\n  queue_capacity: 8\n  stats_period_s: 0.5\n"
+                                               "  warm_up_width: 414\n  warm_up_height: 125\n";
   }
   std::vector<std::string> with_config(std::vector<std::string> args) const {
     args.insert(args.begin(), {"--config", (scratch_ / "config.yaml").string()});

@@ -247,5 +247,22 @@ TEST(PipelineConfigTest, RejectsAnEmptyQueue) {
                ConfigError);
 }
 
+TEST(PipelineConfigTest, RejectsANegativeOrOversizedWarmUpFrame) {
+  for (const auto& [width, height] : {std::pair{-1, 375}, std::pair{1242, -1}, std::pair{100000, 100000}}) {
+    AppConfig config;
+    config.pipeline.warm_up_width = width;
+    config.pipeline.warm_up_height = height;
+    try {
+      Pipeline(config, PipelineMode::kLive, map::GlobalMap(config.map), nullptr, nullptr);
+      ADD_FAILURE() << width << "x" << height << " accepted";
+    } catch (const ConfigError& e) {
+      EXPECT_NE(std::string(e.what()).find("pipeline.warm_up_width"), std::string::npos) << e.what();
+    }
+  }
+  AppConfig off;
+  off.pipeline.warm_up_width = 0;  // 0 turns the warm-up off and is fine
+  EXPECT_NO_THROW(Pipeline(off, PipelineMode::kLive, map::GlobalMap(off.map), nullptr, nullptr).finish());
+}
+
 }  // namespace
 }  // namespace planecell::services
