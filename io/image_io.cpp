@@ -145,6 +145,26 @@ cv::Mat read_image_unchanged(const std::filesystem::path& path, std::int64_t max
   return read_with_flags(path, cv::IMREAD_UNCHANGED, max_pixels);
 }
 
+bool is_png_file(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  char head[8] = {};
+  return in.read(head, sizeof(head)) && std::memcmp(head, "\x89PNG\r\n\x1a\n", 8) == 0;
+}
+
+std::vector<std::uint8_t> read_png_bytes(const std::filesystem::path& path, std::int64_t max_pixels) {
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(path, ec)) throw InputError("image '" + path.string() + "': file not found");
+  if (!is_png_file(path)) throw InputError("image '" + path.string() + "': not a PNG file (no PNG signature)");
+  const auto size = peek_image_size(path);
+  if (!size) throw InputError("image '" + path.string() + "': no PNG IHDR header to read the size from");
+  check_pixels(path, size->first, size->second, max_pixels);
+  std::ifstream in(path, std::ios::binary);
+  std::vector<std::uint8_t> bytes(std::filesystem::file_size(path, ec));
+  if (ec || !in.read(reinterpret_cast<char*>(bytes.data()), static_cast<std::streamsize>(bytes.size())))
+    throw InputError("image '" + path.string() + "': cannot be read");
+  return bytes;
+}
+
 void write_image(const std::filesystem::path& path, const cv::Mat& image, int png_compression) {
   if (image.empty()) throw StorageError("image '" + path.string() + "': nothing to write");
   if (path.has_parent_path()) {

@@ -4,6 +4,7 @@
 #include <filesystem>
 #include <optional>
 #include <utility>
+#include <vector>
 #include <opencv2/core/mat.hpp>
 
 namespace planecell::io {
@@ -26,6 +27,15 @@ cv::Mat read_image(const std::filesystem::path& path, bool colour = true,
 /// Reads an image keeping its depth and channels (e.g. 16-bit PNG). Same errors as read_image.
 cv::Mat read_image_unchanged(const std::filesystem::path& path,
                              std::int64_t max_pixels = kDefaultMaxImagePixels);
+
+/// The bytes of a PNG file as they are, not decoded, after the checks read_image makes before
+/// decoding: the file exists, is not empty, starts with a PNG signature and IHDR, and its size is
+/// within `max_pixels`. Throws InputError naming the path otherwise.
+std::vector<std::uint8_t> read_png_bytes(const std::filesystem::path& path,
+                                         std::int64_t max_pixels = kDefaultMaxImagePixels);
+
+/// True when the file starts with the PNG signature (false when it cannot be read).
+bool is_png_file(const std::filesystem::path& path);
 
 /// Writes an image (format from the extension), creating parent folders. Throws StorageError
 /// naming the path when it cannot be written (full disk, no permission, bad extension).

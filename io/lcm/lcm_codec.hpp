@@ -36,7 +36,16 @@ enum class ImageEncoding : std::int8_t { kRaw = 0, kPng = 1 };
 /// travels separately (pose_t). Throws InputError on empty/mismatched/non-8-bit images.
 planecell_lcm::stereo_frame_t to_lcm(const StereoFrame& frame, ImageEncoding encoding, std::int64_t utime);
 
-/// Decodes a stereo frame (timestamp_s = utime·1e-6, no pose). Throws InputError on a bad size,
+/// A stereo frame whose two images are PNG files already (io::read_png_bytes), sent byte for byte
+/// with channels = 3. PNG is lossless and from_lcm decodes with read_image's flags (8-bit BGR), so
+/// the receiver gets the images load_kitti_frame would read, without the sender decoding and
+/// re-encoding them (~50 ms of CPU per 1242×375 pair). Width and height come from the IHDRs.
+/// Throws InputError when a buffer has no PNG signature and IHDR or the two sizes differ.
+planecell_lcm::stereo_frame_t to_lcm_png(std::uint64_t frame_id, const StereoCamera& camera,
+                                         std::vector<std::uint8_t> left_png,
+                                         std::vector<std::uint8_t> right_png, std::int64_t utime);
+
+/// Decodes a stereo frame (timestamp_s = utime·1e-6, no pose; two PNGs decode at the same time). Throws InputError on a bad size,
 /// channel count, encoding, byte count, undecodable PNG, or non-finite/non-positive camera.
 StereoFrame from_lcm(const planecell_lcm::stereo_frame_t& message);
 

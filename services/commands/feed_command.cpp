@@ -8,6 +8,7 @@
 #include <thread>
 
 #include "core/error.hpp"
+#include "io/image_io.hpp"
 #include "io/kitti_odometry.hpp"
 #include "services/commands/commands.hpp"
 #include "services/pipeline/lcm_link.hpp"
@@ -19,7 +20,8 @@ void add_feed_command(CLI::App& app, CommandContext& context) {
   auto* command = app.add_subcommand(
       "feed",
       "Publish a sequence's stereo frames (stereo_frame_t, PNG or raw) and poses (pose_t) over LCM "
-      "at --rate frames per second; each frame's pose goes out just before its images.");
+      "at --rate frames per second; each frame's pose goes out just before its images. PNG files "
+      "are sent as they are (no decoding: the receiver checks them).");
   struct Args {
     std::string sequence, lcm_url, frames, poses;
     double rate_hz = 10.0;
@@ -59,11 +61,25 @@ void add_feed_command(CLI::App& app, CommandContext& context) {
     auto next = std::chrono::steady_clock::now();
     std::size_t sent = 0;
     for (std::size_t index = first; index < last && !signals.requested(); ++index) {
-      StereoFrame frame = io::load_kitti_frame(sequence, index);
-      frame.frame_id = index;
       const auto utime = now_utime();
-      publish_message(*lcm, config.lcm.pose_channel, io::to_lcm(index, *frame.pose, utime));
-      publish_message(*lcm, config.lcm.stereo_channel, io::to_lcm(frame, encoding, utime));
+      const auto& left = sequence.left_images[index];
+      const auto& right = sequence.right_images[index];
+      planecell_lcm::stereo_frame_t message;
+      if (encoding == io::ImageEncoding::kPng && io::is_png_file(left) && io::is_png_file(right)) {
+        // PNG files go out as they are: the daemon decodes them exactly as load_kitti_frame would.
+        message = io::to_lcm_png(index, sequence.camera, io::read_png_bytes(left), io::read_png_bytes(right), utime);
+        if (sequence.camera.width > 0 &&
+            (message.width != sequence.camera.width || message.height != sequence.camera.height))
+          throw InputError("feed: frame '" + left.string() + "' is " + std::to_string(message.width) + "x" +
+                           std::to_string(message.height) + ", the sequence's calibration says " +
+                           std::to_string(sequence.camera.width) + "x" + std::to_string(sequence.camera.height));
+      } else {
+        StereoFrame frame = io::load_kitti_frame(sequence, index);
+        frame.frame_id = index;
+        message = io::to_lcm(frame, encoding, utime);
+      }
+      publish_message(*lcm, config.lcm.pose_channel, io::to_lcm(index, sequence.poses[index], utime));
+      publish_message(*lcm, config.lcm.stereo_channel, message);
       ++sent;
       next += std::chrono::duration_cast<std::chrono::steady_clock::duration>(period);
       std::this_thread::sleep_until(next);

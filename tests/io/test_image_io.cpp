@@ -78,6 +78,24 @@ TEST(ImageIo, MissingEmptyAndCorruptFilesAreNamed) {
   expect_error_naming<InputError>([&] { read_image(dir / "cut.png"); }, "cannot be decoded");
 }
 
+TEST(ImageIo, PngBytesAreTheFileAsItIsAfterTheHeaderChecks) {
+  test::ScratchDir dir;
+  write_image(dir / "whole.png", pattern_bgr());
+  std::ifstream whole(dir / "whole.png", std::ios::binary);
+  const std::string file((std::istreambuf_iterator<char>(whole)), std::istreambuf_iterator<char>());
+  EXPECT_TRUE(is_png_file(dir / "whole.png"));
+  const auto bytes = read_png_bytes(dir / "whole.png");
+  EXPECT_EQ(std::string(bytes.begin(), bytes.end()), file);
+
+  expect_error_naming<InputError>([&] { read_png_bytes(dir / "absent.png"); }, "absent.png");
+  EXPECT_FALSE(is_png_file(dir / "absent.png"));
+  std::ofstream(dir / "text.png") << "definitely not a PNG file";
+  EXPECT_FALSE(is_png_file(dir / "text.png"));
+  expect_error_naming<InputError>([&] { read_png_bytes(dir / "text.png"); }, "not a PNG file");
+  // 5x7 = 35 pixels: more than a 30-pixel limit.
+  expect_error_naming<InputError>([&] { read_png_bytes(dir / "whole.png", 30); }, "whole.png");
+}
+
 TEST(ImageIo, UnwritableTargetsRaiseStorageError) {
   test::ScratchDir dir;
   expect_error_naming<StorageError>([&] { write_image(dir / "x.png", cv::Mat()); }, "x.png");

@@ -5,6 +5,8 @@
 #include <cmath>
 #include <limits>
 #include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "core/error.hpp"
 #include "io/lcm/lcm_codec.hpp"
@@ -56,6 +58,39 @@ TEST(LcmCodec, StereoFrameRoundTripsRawAndPngExactly) {
   }
   const auto raw = to_lcm(frame, ImageEncoding::kRaw, 0);
   EXPECT_EQ(raw.left.size(), 30u * 40u * 3u);
+}
+
+TEST(LcmCodec, PngFilesSentAsTheyAreDecodeToTheImagesReadImageGives) {
+  // What a sequence on disk holds: a colour PNG (RGB in the file) and a gray one (KITTI image_0).
+  const StereoFrame frame = test_frame();
+  cv::Mat gray;
+  cv::cvtColor(frame.right, gray, cv::COLOR_BGR2GRAY);
+  std::vector<std::uint8_t> left_png, right_png;
+  ASSERT_TRUE(cv::imencode(".png", frame.left, left_png, {cv::IMWRITE_PNG_COMPRESSION, 9}));
+  ASSERT_TRUE(cv::imencode(".png", gray, right_png));
+  const auto sent = to_lcm_png(7, frame.camera, left_png, right_png, 99);
+  EXPECT_EQ(sent.left, left_png);  // byte for byte
+  EXPECT_EQ(sent.width, 40);
+  EXPECT_EQ(sent.height, 30);
+  const StereoFrame back = from_lcm(decode_stereo_frame(encode_bytes(sent)));
+  EXPECT_EQ(back.frame_id, 7u);
+  EXPECT_EQ(back.camera.fx, 500.0);
+  EXPECT_TRUE(same_pixels(back.left, frame.left));
+  // read_image's flags: a gray file arrives as 3 equal BGR channels.
+  cv::Mat gray_bgr;
+  cv::cvtColor(gray, gray_bgr, cv::COLOR_GRAY2BGR);
+  EXPECT_TRUE(same_pixels(back.right, gray_bgr));
+
+  std::vector<std::uint8_t> not_png(left_png.begin() + 1, left_png.end());
+  EXPECT_THROW(to_lcm_png(7, frame.camera, left_png, not_png, 0), InputError);
+  std::vector<std::uint8_t> smaller;
+  ASSERT_TRUE(cv::imencode(".png", frame.left(cv::Rect(0, 0, 39, 30)), smaller));
+  try {
+    to_lcm_png(7, frame.camera, left_png, smaller, 0);
+    ADD_FAILURE() << "PNGs of different sizes accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("40x30 and 39x30"), std::string::npos) << e.what();
+  }
 }
 
 TEST(LcmCodec, StereoFrameWithBadFieldsIsRejected) {
