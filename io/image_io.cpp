@@ -98,6 +98,13 @@ cv::Mat read_with_flags(const std::filesystem::path& path, int flags, std::int64
 
 }  // namespace
 
+std::optional<std::pair<std::uint32_t, std::uint32_t>> png_header_size(std::span<const std::uint8_t> bytes) {
+  static const unsigned char kPng[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
+  if (bytes.size() < 24 || std::memcmp(bytes.data(), kPng, 8) != 0 || std::memcmp(bytes.data() + 12, "IHDR", 4) != 0)
+    return std::nullopt;
+  return std::pair{big_endian(bytes.data() + 16, 4), big_endian(bytes.data() + 20, 4)};
+}
+
 std::optional<std::pair<std::int64_t, std::int64_t>> peek_image_size(
     const std::filesystem::path& path) {
   std::ifstream in(path, std::ios::binary);
@@ -105,10 +112,8 @@ std::optional<std::pair<std::int64_t, std::int64_t>> peek_image_size(
   unsigned char head[24] = {};
   in.read(reinterpret_cast<char*>(head), sizeof(head));
   const auto got = in.gcount();
-  // PNG: 8-byte signature, then the IHDR chunk: length, "IHDR", width, height (big-endian u32).
-  static const unsigned char kPng[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
-  if (got >= 24 && std::memcmp(head, kPng, 8) == 0 && std::memcmp(head + 12, "IHDR", 4) == 0)
-    return std::pair<std::int64_t, std::int64_t>{big_endian(head + 16, 4), big_endian(head + 20, 4)};
+  if (const auto png = png_header_size(std::span<const std::uint8_t>(head, static_cast<std::size_t>(got))))
+    return std::pair<std::int64_t, std::int64_t>{png->first, png->second};
   // JPEG: SOI, then segments (FF marker, big-endian length) up to a SOFn frame header:
   // FF Cn, length, precision, height (u16), width (u16).
   if (got >= 2 && head[0] == 0xFF && head[1] == 0xD8) {
@@ -147,16 +152,17 @@ cv::Mat read_image_unchanged(const std::filesystem::path& path, std::int64_t max
 
 bool is_png_file(const std::filesystem::path& path) {
   std::ifstream in(path, std::ios::binary);
-  char head[8] = {};
-  return in.read(head, sizeof(head)) && std::memcmp(head, "\x89PNG\r\n\x1a\n", 8) == 0;
+  std::uint8_t head[24] = {};
+  in.read(reinterpret_cast<char*>(head), sizeof(head));
+  return png_header_size(std::span<const std::uint8_t>(head, static_cast<std::size_t>(in.gcount()))).has_value();
 }
 
 std::vector<std::uint8_t> read_png_bytes(const std::filesystem::path& path, std::int64_t max_pixels) {
   std::error_code ec;
   if (!std::filesystem::is_regular_file(path, ec)) throw InputError("image '" + path.string() + "': file not found");
-  if (!is_png_file(path)) throw InputError("image '" + path.string() + "': not a PNG file (no PNG signature)");
+  if (!is_png_file(path)) throw InputError("image '" + path.string() + "': not a PNG file (no PNG signature and IHDR)");
   const auto size = peek_image_size(path);
-  if (!size) throw InputError("image '" + path.string() + "': no PNG IHDR header to read the size from");
+  if (!size) throw InputError("image '" + path.string() + "': cannot read the image size from its header");
   check_pixels(path, size->first, size->second, max_pixels);
   std::ifstream in(path, std::ios::binary);
   std::vector<std::uint8_t> bytes(std::filesystem::file_size(path, ec));

@@ -3,6 +3,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <optional>
+#include <span>
 #include <utility>
 #include <vector>
 #include <opencv2/core/mat.hpp>
@@ -14,6 +15,10 @@ namespace planecell::io {
 /// corrupt header can claim. Checked from the file header before decoding allocates (PNG, JPEG,
 /// PFM; other formats after OpenCV's own 2³⁰-pixel header check).
 inline constexpr std::int64_t kDefaultMaxImagePixels = 64'000'000;
+
+/// Width and height from the start of a PNG in memory: the 8-byte signature, then the IHDR chunk
+/// (big-endian u32 width and height at bytes 16 and 20); nullopt when the bytes do not start so.
+std::optional<std::pair<std::uint32_t, std::uint32_t>> png_header_size(std::span<const std::uint8_t> bytes);
 
 /// Width and height from a PNG (IHDR) or JPEG (SOFn) header without decoding; nullopt for other
 /// or unrecognised formats. Throws InputError naming the path when the file cannot be read.
@@ -34,7 +39,7 @@ cv::Mat read_image_unchanged(const std::filesystem::path& path,
 std::vector<std::uint8_t> read_png_bytes(const std::filesystem::path& path,
                                          std::int64_t max_pixels = kDefaultMaxImagePixels);
 
-/// True when the file starts with the PNG signature (false when it cannot be read).
+/// True when the file starts with a PNG signature and IHDR (false when it cannot be read).
 bool is_png_file(const std::filesystem::path& path);
 
 /// Writes an image (format from the extension), creating parent folders. Throws StorageError

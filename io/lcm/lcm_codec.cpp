@@ -9,6 +9,7 @@
 #include <string>
 
 #include "core/error.hpp"
+#include "io/image_io.hpp"
 
 namespace planecell::io {
 namespace {
@@ -126,19 +127,6 @@ planecell_lcm::map_stats_t decode_map_stats(std::span<const std::uint8_t> bytes)
 
 namespace {
 
-/// Width and height from a PNG's signature and IHDR chunk (big-endian u32 at bytes 16 and 20);
-/// nullopt when the bytes do not start that way.
-std::optional<std::pair<std::uint32_t, std::uint32_t>> png_size(std::span<const std::uint8_t> bytes) {
-  static const unsigned char kPng[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
-  if (bytes.size() < 24 || std::memcmp(bytes.data(), kPng, 8) != 0 || std::memcmp(bytes.data() + 12, "IHDR", 4) != 0)
-    return std::nullopt;
-  auto u32 = [&](std::size_t at) {
-    return (std::uint32_t{bytes[at]} << 24) | (std::uint32_t{bytes[at + 1]} << 16) |
-           (std::uint32_t{bytes[at + 2]} << 8) | std::uint32_t{bytes[at + 3]};
-  };
-  return std::pair{u32(16), u32(20)};
-}
-
 /// The message's header fields: ids, time, size, channels, encoding and camera.
 planecell_lcm::stereo_frame_t stereo_header(std::uint64_t frame_id, const StereoCamera& camera, int width,
                                             int height, int channels, ImageEncoding encoding,
@@ -189,7 +177,7 @@ planecell_lcm::stereo_frame_t to_lcm_png(std::uint64_t frame_id, const StereoCam
                                          std::vector<std::uint8_t> left_png,
                                          std::vector<std::uint8_t> right_png, std::int64_t utime) {
   const std::string name = frame_name(static_cast<std::int64_t>(frame_id));
-  const auto left = png_size(left_png), right = png_size(right_png);
+  const auto left = io::png_header_size(left_png), right = io::png_header_size(right_png);
   if (!left || !right)
     throw InputError("stereo frame " + name + ": " + (left ? "right" : "left") +
                      " image is not a PNG (no PNG signature and IHDR)");
@@ -237,7 +225,7 @@ StereoFrame from_lcm(const planecell_lcm::stereo_frame_t& m) {
       if (bytes.empty()) throw InputError(name + ": " + side + " PNG is empty");
       // Only a PNG whose IHDR agrees with the header reaches the decoder: imdecode would try its
       // other decoders on anything else, and a forged size would allocate before any check.
-      const auto size = png_size(bytes);
+      const auto size = io::png_header_size(bytes);
       if (!size) throw InputError(name + ": " + side + " image is not a PNG (no PNG signature and IHDR)");
       if (size->first != static_cast<std::uint32_t>(m.width) || size->second != static_cast<std::uint32_t>(m.height))
         throw InputError(name + ": " + side + " PNG is " + std::to_string(size->first) + "x" +
