@@ -168,6 +168,18 @@ std::vector<std::uint8_t> read_png_bytes(const std::filesystem::path& path, std:
   std::vector<std::uint8_t> bytes(std::filesystem::file_size(path, ec));
   if (ec || !in.read(reinterpret_cast<char*>(bytes.data()), static_cast<std::streamsize>(bytes.size())))
     throw InputError("image '" + path.string() + "': cannot be read");
+  // The chunk layout, without decompressing: after the signature, chunks of (big-endian length,
+  // type, data, CRC) up to IEND. A cut file ends inside a chunk or before IEND.
+  std::size_t at = 8;
+  bool ended = false;
+  while (!ended && at + 12 <= bytes.size()) {
+    const std::size_t length = big_endian(bytes.data() + at, 4);
+    ended = std::memcmp(bytes.data() + at + 4, "IEND", 4) == 0;
+    if (length > bytes.size() - at - 12) break;
+    at += 12 + length;
+  }
+  if (!ended || at > bytes.size())
+    throw InputError("image '" + path.string() + "': truncated PNG (its chunks end before IEND)");
   return bytes;
 }
 

@@ -34,8 +34,9 @@ cv::Mat read_image_unchanged(const std::filesystem::path& path,
                              std::int64_t max_pixels = kDefaultMaxImagePixels);
 
 /// The bytes of a PNG file as they are, not decoded, after the checks read_image makes before
-/// decoding: the file exists, is not empty, starts with a PNG signature and IHDR, and its size is
-/// within `max_pixels`. Throws InputError naming the path otherwise.
+/// decoding: the file exists, is not empty, starts with a PNG signature and IHDR, its size is
+/// within `max_pixels`, and its chunks run whole up to IEND (a cut file is refused; the pixel
+/// data itself is not decoded). Throws InputError naming the path otherwise.
 std::vector<std::uint8_t> read_png_bytes(const std::filesystem::path& path,
                                          std::int64_t max_pixels = kDefaultMaxImagePixels);
 

@@ -92,6 +92,11 @@ TEST(ImageIo, PngBytesAreTheFileAsItIsAfterTheHeaderChecks) {
   std::ofstream(dir / "text.png") << "definitely not a PNG file";
   EXPECT_FALSE(is_png_file(dir / "text.png"));
   expect_error_naming<InputError>([&] { read_png_bytes(dir / "text.png"); }, "not a PNG file");
+  // A PNG cut short, inside its data or just before its IEND chunk.
+  for (const std::size_t keep : {std::size_t{40}, file.size() - 12, file.size() - 1}) {
+    std::ofstream(dir / "cut.png", std::ios::binary) << file.substr(0, keep);
+    expect_error_naming<InputError>([&] { read_png_bytes(dir / "cut.png"); }, "truncated PNG");
+  }
   // 5x7 = 35 pixels: more than a 30-pixel limit.
   expect_error_naming<InputError>([&] { read_png_bytes(dir / "whole.png", 30); }, "whole.png");
 }
