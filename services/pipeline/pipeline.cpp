@@ -296,7 +296,11 @@ void Pipeline::publish_loop() {
     }
     const double e2e_ms =
         std::chrono::duration<double, std::milli>(StageClock::now() - item->ingest_time).count();
-    spdlog::debug("pipeline: frame {} done, end to end {:.1f} ms", item->frame_id, e2e_ms);
+    if (spdlog::should_log(spdlog::level::debug)) {
+      std::string stages;
+      for (const auto& [stage, ms] : item->stage_ms) stages += fmt::format(" {} {:.1f}", stage, ms);
+      spdlog::debug("pipeline: frame {} done, end to end {:.1f} ms (stage ms:{})", item->frame_id, e2e_ms, stages);
+    }
     const std::lock_guard lock(stats_mutex_);
     for (const auto& [stage, ms] : item->stage_ms) latency_.add(stage, ms);
     latency_.add("end_to_end", e2e_ms);
