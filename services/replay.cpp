@@ -150,8 +150,7 @@ ReplayReport run_replay(const ReplayOptions& options, const AppConfig& config) {
     report.merge_ms.push_back(work.merge.merge_ms);
     report.surface_merges += work.merge.surface_merges.size();
     plane_fraction_sum += work.cells.plane_fraction;
-    if (options.memory_sample_every > 0 && report.frames % options.memory_sample_every == 0)
-      sample_memory(work.map_bytes);
+    if (work.map_bytes) sample_memory(*work.map_bytes);  // merge measured it: a sampled frame
     if (options.progress)
       progress.update(work.frame_id + 1 - first, "cells " + std::to_string(work.map_cells));
   };
@@ -177,7 +176,8 @@ ReplayReport run_replay(const ReplayOptions& options, const AppConfig& config) {
       extract_stage(work, config.extraction);
       if (refinement) refine_stage(work, *refinement, global_map);
       transform_stage(work);
-      merge_stage(work, global_map, options.sinks.want_delta);
+      const std::size_t every = options.memory_sample_every;
+      merge_stage(work, global_map, options.sinks.want_delta, every > 0 && (report.frames + 1) % every == 0);
       if (store) store_stage(work, *store, global_map);
       if (voxel_map) voxel_stage(work, *voxel_map, config.voxel);
       if (options.sinks.publish) work.timed("publish", [&] { options.sinks.publish(work); });
@@ -198,6 +198,7 @@ ReplayReport run_replay(const ReplayOptions& options, const AppConfig& config) {
       if (options.observe) options.observe(work);
     };
     if (options.observe) sinks.keep_images = true;
+    sinks.map_bytes_every = options.memory_sample_every;
     Pipeline pipeline(config, PipelineMode::kReplay, std::move(global_map), store.get(), voxel_map.get(),
                       std::move(sinks));
     // First-frame costs are paid on a synthetic frame before the clock of the first real one.

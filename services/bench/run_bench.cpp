@@ -139,7 +139,9 @@ class FrameObserver {
       const auto stats = voxels_.stats();
       MemorySample m;
       m.frames = done_;
-      m.planecell_ram_bytes = work.map_bytes;
+      // Measured by the merge stage on every stride-th frame (ReplayOptions::memory_sample_every);
+      // the last sample's is the replay's final map_bytes (run_bench fills it in).
+      m.planecell_ram_bytes = work.map_bytes.value_or(0);
       m.planecell_store_bytes = file_bytes(store_path_) + file_bytes(store_path_.string() + "-wal");
       m.planecell_cells = work.map_cells;
       m.points = points_;
@@ -154,6 +156,8 @@ class FrameObserver {
   }
 
   std::vector<std::pair<std::string, LatencySummary>> latency() const { return log_.summaries(); }
+  /// Frames between two memory samples.
+  std::size_t stride() const { return stride_; }
 
  private:
   const BenchOptions& options_;
@@ -244,7 +248,9 @@ BenchReport run_bench(const BenchOptions& options, const AppConfig& config) {
   replay.progress = options.progress;
   replay.threads = options.threads;
   replay.observe = [&observer](const FrameWork& work) { observer(work); };
+  replay.memory_sample_every = observer.stride();  // the merge stage measures the map's RAM then
   report.replay = run_replay(replay, config);
+  if (!report.memory.empty()) report.memory.back().planecell_ram_bytes = report.replay.map_bytes;
   report.bench_latency = observer.latency();
 
   // Top views of the stored map, read back through the store like any consumer of the map.

@@ -144,7 +144,8 @@ Pipeline::Pipeline(const AppConfig& config, PipelineMode mode, map::GlobalMap ma
                          refine_stage(w, *refine_, map_);
                          place(w);
                        }
-                       merge_stage(w, map_, sinks_.want_delta);
+                       const std::size_t every = sinks_.map_bytes_every;
+                       merge_stage(w, map_, sinks_.want_delta, every > 0 && ++merged_frames_ % every == 0);
                        if (store_) store_stage(w, *store_, map_);
                        const std::lock_guard lock(stats_mutex_);
                        map_cells_ = map_.cells().size();

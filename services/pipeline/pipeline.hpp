@@ -63,6 +63,9 @@ using PublishFn = std::function<void(const FrameWork& work)>;
 struct PipelineSinks {
   PublishFn publish;        ///< may be empty
   bool want_delta = false;  ///< merge stage copies its changes into FrameWork::delta
+  /// The merge stage measures GlobalMap::map_bytes() into FrameWork::map_bytes on every n-th
+  /// merged frame (O(cells): not every frame of a long run); 0 = never.
+  std::size_t map_bytes_every = 0;
   /// Keep the frame's images, disparity and label images until publish (e.g. for a per-frame
   /// observer that scores them); by default the transform stage frees them.
   bool keep_images = false;
@@ -144,6 +147,7 @@ class Pipeline {
   mutable std::mutex stats_mutex_;
   std::size_t frames_in_ = 0, frames_done_ = 0, frames_failed_ = 0;
   std::size_t map_cells_ = 0, map_surfaces_ = 0;
+  std::size_t merged_frames_ = 0;  ///< merge thread only: frames merged (map_bytes_every)
   LatencyLog latency_;
   StageCostLog costs_;
 };

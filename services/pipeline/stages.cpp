@@ -40,7 +40,7 @@ void transform_stage(FrameWork& work) {
   });
 }
 
-void merge_stage(FrameWork& work, map::GlobalMap& map, bool want_delta) {
+void merge_stage(FrameWork& work, map::GlobalMap& map, bool want_delta, bool want_map_bytes) {
   if (!work.frame.pose)
     throw InputError("frame " + std::to_string(work.frame_id) + ": no pose to merge it with");
   work.timed("merge", [&] {
@@ -48,7 +48,7 @@ void merge_stage(FrameWork& work, map::GlobalMap& map, bool want_delta) {
     work.map_cells = map.cells().size();
     if (want_delta) work.delta = make_delta(work.merge, map);
   });
-  work.map_bytes = map.map_bytes();  // O(cells), outside the merge time
+  if (want_map_bytes) work.map_bytes = map.map_bytes();  // O(cells), outside the merge time
 }
 
 void refine_stage(FrameWork& work, RefineStage& refinement, const map::GlobalMap& map) {

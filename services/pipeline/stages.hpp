@@ -63,7 +63,8 @@ struct FrameWork {
   map::MergeReport merge;                ///< merge: what integrate() changed
   MapDelta delta;                        ///< merge (when asked for): copy of the changes
   std::size_t map_cells = 0;             ///< merge: cells in the map after this frame
-  std::size_t map_bytes = 0;             ///< merge: GlobalMap::map_bytes() after this frame
+  /// merge, when asked for: GlobalMap::map_bytes() after this frame (O(cells), so not every frame)
+  std::optional<std::size_t> map_bytes;
   /// Wall time of each stage run on this frame, in order ("sgm", "extract", ...), ms.
   std::vector<std::pair<std::string, double>> stage_ms;
   /// CPU time and page faults of the same stage runs, same order as stage_ms.
@@ -105,8 +106,10 @@ void transform_stage(FrameWork& work);
 void refine_stage(FrameWork& work, RefineStage& refinement, const map::GlobalMap& map);
 
 /// merge: GlobalMap::integrate of the world cells. With `want_delta`, copies the changes into
-/// work.delta (MapDelta) for consumers that run after the map has moved on.
-void merge_stage(FrameWork& work, map::GlobalMap& map, bool want_delta = false);
+/// work.delta (MapDelta) for consumers that run after the map has moved on; with
+/// `want_map_bytes`, measures the map's RAM into work.map_bytes (it walks every cell and surface:
+/// a cost that grows with the map, so callers ask for it only on the frames they sample).
+void merge_stage(FrameWork& work, map::GlobalMap& map, bool want_delta = false, bool want_map_bytes = false);
 
 /// store: commits the merged frame to the map store (one transaction).
 void store_stage(FrameWork& work, io::MapStore& store, const map::GlobalMap& map);
