@@ -42,13 +42,26 @@ double covered_fraction(const Plane3& plane, std::span<const Eigen::Vector3f> ve
   const int nx = std::clamp(static_cast<int>(std::ceil(size.x() / step)), 1, 4 * samples);
   const int ny = std::clamp(static_cast<int>(std::ceil(size.y() / step)), 1, 4 * samples);
   int own = 0, hits = 0;
-  for (int j = 0; j < ny; ++j)
+  std::vector<double> crossings;
+  for (int j = 0; j < ny; ++j) {
+    const double t = lo.y() + (j + 0.5) * size.y() / ny;
+    // point_in_ring's even-odd rule, one grid row at a time: the row's crossings x_c (same edges,
+    // same expression) once, then a point is inside iff an odd number of them lie right of it.
+    crossings.clear();
+    for (std::size_t a = 0, b = ring.size() - 1; a < ring.size(); b = a++) {
+      const Eigen::Vector2d& u = ring[a];
+      const Eigen::Vector2d& w = ring[b];
+      if ((u.y() > t) != (w.y() > t)) crossings.push_back((w.x() - u.x()) * (t - u.y()) / (w.y() - u.y()) + u.x());
+    }
+    if (crossings.empty()) continue;
     for (int i = 0; i < nx; ++i) {
-      const Eigen::Vector2d st(lo.x() + (i + 0.5) * size.x() / nx, lo.y() + (j + 0.5) * size.y() / ny);
-      if (!point_in_ring(ring, st)) continue;
+      const Eigen::Vector2d st(lo.x() + (i + 0.5) * size.x() / nx, t);
+      const auto right = std::count_if(crossings.begin(), crossings.end(), [&](double x) { return st.x() < x; });
+      if (right % 2 == 0) continue;
       ++own;
       if (covered(st, basis)) ++hits;
     }
+  }
   return own > 0 ? static_cast<double>(hits) / own : 0.0;
 }
 
