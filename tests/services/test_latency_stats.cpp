@@ -1,5 +1,7 @@
 #include <gtest/gtest.h>
 
+#include <random>
+
 #include "services/latency_stats.hpp"
 
 namespace planecell::services {
@@ -35,6 +37,31 @@ TEST(LatencyStats, LogKeepsStageOrderAndSeparatesSeries) {
   EXPECT_DOUBLE_EQ(summaries[0].second.max_ms, 50.0);
   EXPECT_EQ(summaries[1].first, "extract");
   EXPECT_DOUBLE_EQ(summaries[1].second.p50_ms, 10.0);
+}
+
+TEST(LatencyStats, LogPercentilesStayWithinHalfAPercentOfTheExactOnes) {
+  // Log-normal latencies around 100 ms, with a tail: what a stage's samples look like.
+  std::mt19937 rng(7);
+  std::lognormal_distribution<double> latency(std::log(100.0), 0.4);
+  std::vector<double> samples;
+  LatencyLog log;
+  for (int i = 0; i < 100000; ++i) {
+    samples.push_back(latency(rng));
+    log.add("e2e", samples.back());
+  }
+  log.add("tiny", 2e-4);  // below the first bin
+  log.add("tiny", 5e8);   // beyond the last
+  const LatencySummary exact = summarise(samples);
+  const LatencySummary binned = log.summaries().front().second;
+  EXPECT_EQ(binned.count, exact.count);
+  EXPECT_NEAR(binned.p50_ms, exact.p50_ms, 0.005 * exact.p50_ms);
+  EXPECT_NEAR(binned.p95_ms, exact.p95_ms, 0.005 * exact.p95_ms);
+  EXPECT_NEAR(binned.p99_ms, exact.p99_ms, 0.005 * exact.p99_ms);
+  EXPECT_DOUBLE_EQ(binned.max_ms, exact.max_ms);
+  EXPECT_NEAR(binned.mean_ms, exact.mean_ms, 1e-9 * exact.mean_ms);
+  const LatencySummary tiny = log.summaries().back().second;
+  EXPECT_DOUBLE_EQ(tiny.p50_ms, 2e-4);  // clamped to the observed minimum
+  EXPECT_DOUBLE_EQ(tiny.p99_ms, 5e8);   // and maximum
 }
 
 }  // namespace
