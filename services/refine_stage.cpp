@@ -32,7 +32,10 @@ constexpr double kRadToDeg = 180.0 / std::numbers::pi;
 
 }  // namespace
 
-RefineStage::RefineStage(const RefineConfig& config) : config_(config) { refine::validate(config_); }
+RefineStage::RefineStage(const RefineConfig& config, bool keep_records)
+    : config_(config), keep_records_(keep_records) {
+  refine::validate(config_);
+}
 
 Pose RefineStage::refine(std::uint64_t frame_id, std::span<const Planecell> cells_cam,
                          const Pose& input, const map::GlobalMap& map, const StereoCamera& camera) {
@@ -58,6 +61,7 @@ Pose RefineStage::refine(std::uint64_t frame_id, std::span<const Planecell> cell
   record.observable_directions = result.observable_directions;
   record.iterations = result.iterations;
   record.information_eigenvalues = result.information_eigenvalues;
+  if (!keep_records_) frames_.clear();
   frames_.push_back(record);
   return record.refined;
 }

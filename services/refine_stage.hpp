@@ -50,8 +50,10 @@ struct RefineSummary {
 
 class RefineStage {
  public:
-  /// Validates the config (ConfigError).
-  explicit RefineStage(const RefineConfig& config);
+  /// Validates the config (ConfigError). With `keep_records` every frame's record is kept for
+  /// summary() (replay's report); without (the daemon, which runs indefinitely), only the last
+  /// one, which the next prediction needs.
+  explicit RefineStage(const RefineConfig& config, bool keep_records = true);
 
   /// Refines frame `frame_id` seen with odometry pose `input` (cells in the camera frame) and
   /// returns the pose to transform, merge and store the frame with. Prediction: with the previous
@@ -67,7 +69,8 @@ class RefineStage {
 
  private:
   RefineConfig config_;
-  std::vector<FrameRefinement> frames_;
+  bool keep_records_ = true;
+  std::vector<FrameRefinement> frames_;  ///< every record (keep_records), else at most the last
 };
 
 /// Ground truth for replay's trajectory metrics: the sequence's own pose file (found as

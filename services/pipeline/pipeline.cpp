@@ -116,7 +116,8 @@ Pipeline::Pipeline(const AppConfig& config, PipelineMode mode, map::GlobalMap ma
   SgmConfig sgm = config_.sgm;
   if (config_.pipeline.sgm_threads > 0) sgm.threads = config_.pipeline.sgm_threads;
 
-  if (config_.refine.enabled) refine_.emplace(config_.refine);
+  // A live pipeline runs indefinitely: its refinement keeps only the record the next frame needs.
+  if (config_.refine.enabled) refine_.emplace(config_.refine, mode_ == PipelineMode::kReplay);
   // Pose transform and the voxel baseline need the frame's final pose: with pose refinement it is
   // known only in the merge thread (refinement reads the map that thread writes), so they run
   // there, after it; without, in their own stage.

@@ -19,47 +19,19 @@ namespace {
 using Vector6 = Eigen::Matrix<double, 6, 1>;
 constexpr double kDeg = std::numbers::pi / 180.0;
 
-/// Tiles the rectangle origin + [0, a_len]·a + [0, b_len]·b into square cells of edge `tile_m`,
-/// starting `shift_m` into the rectangle along both axes (cells are clipped to the rectangle).
-void tile(std::vector<Planecell>& out, const Eigen::Vector3f& origin, const Eigen::Vector3f& a,
-          const Eigen::Vector3f& b, float a_len, float b_len, float tile_m, float shift_m, int bin) {
-  for (float s = shift_m; s < a_len - 1e-3f; s += tile_m) {
-    for (float t = shift_m; t < b_len - 1e-3f; t += tile_m) {
-      const float ds = std::min(tile_m, a_len - s), dt = std::min(tile_m, b_len - t);
-      Planecell c = test::rect_cell(static_cast<std::uint32_t>(out.size()), origin + s * a + t * b,
-                                    ds * a, dt * b, bin);
-      c.inlier_ratio = 1.0f;
-      out.push_back(c);
-    }
-  }
-}
-
-/// World (KITTI camera-style: x right, y down, z forward; road at y = 1.65) street cells.
-/// `shift_m` offsets the tiling so a frame's cells differ from the map's.
-std::vector<Planecell> street_cells(float shift_m, bool ground_only) {
-  const Eigen::Vector3f x(1, 0, 0), y(0, 1, 0), z(0, 0, 1);
-  std::vector<Planecell> cells;
-  tile(cells, {-5, 1.65f, 3}, z, x, 17, 10, 2, shift_m, 1);  // road: n = z × x = +y
-  if (ground_only) return cells;
-  tile(cells, {-5, -3, 3}, y, z, 4.65f, 17, 2, shift_m, 2);  // left wall x = −5
-  tile(cells, {5, -3, 3}, z, y, 17, 4.65f, 2, shift_m, 3);   // right wall x = +5
-  tile(cells, {-5, -3, 20}, x, y, 10, 4.65f, 2, shift_m, 4); // facade z = 20
-  return cells;
-}
-
 /// The map built from the street seen at the identity pose.
 map::GlobalMap make_map(bool ground_only) {
   MapConfig config;
   config.max_range_m = 40.0;  // the facade at z = 20 m is part of the fixture
   map::GlobalMap map(config);
-  const auto cells = street_cells(0.0f, ground_only);
+  const auto cells = test::street_cells(0.0f, ground_only);
   map.integrate(0, Pose::Identity(), cells);
   return map;
 }
 
 /// The frame's camera-frame cells, seen from the true pose.
 std::vector<Planecell> frame_cells(const Pose& T_world_cam_true, bool ground_only) {
-  const auto world = street_cells(1.0f, ground_only);
+  const auto world = test::street_cells(1.0f, ground_only);
   return map::to_world(world, T_world_cam_true.inverse());
 }
 
@@ -124,7 +96,7 @@ TEST(SurfacePlanes, FusedReObservationsCountAsInformationOfTheSurfacePlane) {
   MapConfig map_config;
   map_config.max_range_m = 40.0;
   map::GlobalMap once(map_config), twice(map_config);
-  const auto cells = street_cells(0.0f, true);
+  const auto cells = test::street_cells(0.0f, true);
   once.integrate(0, Pose::Identity(), cells);
   twice.integrate(0, Pose::Identity(), cells);
   twice.integrate(1, Pose::Identity(), cells);
