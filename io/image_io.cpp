@@ -159,14 +159,17 @@ bool is_png_file(const std::filesystem::path& path) {
 
 std::vector<std::uint8_t> read_png_bytes(const std::filesystem::path& path, std::int64_t max_pixels) {
   std::error_code ec;
-  if (!std::filesystem::is_regular_file(path, ec)) throw InputError("image '" + path.string() + "': file not found");
-  if (!is_png_file(path)) throw InputError("image '" + path.string() + "': not a PNG file (no PNG signature and IHDR)");
-  const auto size = peek_image_size(path);
-  if (!size) throw InputError("image '" + path.string() + "': cannot read the image size from its header");
-  check_pixels(path, size->first, size->second, max_pixels);
+  const auto file_size = std::filesystem::is_regular_file(path, ec) ? std::filesystem::file_size(path, ec) : 0;
+  if (ec || file_size == 0) throw InputError("image '" + path.string() + "': file not found or empty");
+  // One read: the header is checked (signature, IHDR, size) before the rest is read.
   std::ifstream in(path, std::ios::binary);
-  std::vector<std::uint8_t> bytes(std::filesystem::file_size(path, ec));
-  if (ec || !in.read(reinterpret_cast<char*>(bytes.data()), static_cast<std::streamsize>(bytes.size())))
+  std::vector<std::uint8_t> bytes(std::min<std::uintmax_t>(file_size, 24));
+  in.read(reinterpret_cast<char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()));
+  const auto size = png_header_size(bytes);
+  if (!in || !size) throw InputError("image '" + path.string() + "': not a PNG file (no PNG signature and IHDR)");
+  check_pixels(path, size->first, size->second, max_pixels);
+  bytes.resize(file_size);
+  if (!in.read(reinterpret_cast<char*>(bytes.data()) + 24, static_cast<std::streamsize>(file_size - 24)))
     throw InputError("image '" + path.string() + "': cannot be read");
   // The chunk layout, without decompressing: after the signature, chunks of (big-endian length,
   // type, data, CRC) up to IEND. A cut file ends inside a chunk or before IEND.
