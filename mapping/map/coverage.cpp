@@ -45,14 +45,12 @@ double covered_fraction(const Plane3& plane, std::span<const Eigen::Vector3f> ve
   std::vector<double> crossings;
   for (int j = 0; j < ny; ++j) {
     const double t = lo.y() + (j + 0.5) * size.y() / ny;
-    // point_in_ring's even-odd rule, one grid row at a time: the row's crossings x_c (same edges,
-    // same expression) once, then a point is inside iff an odd number of them lie right of it.
+    // point_in_ring's even-odd rule, one grid row at a time: the row's crossings
+    // (edge_crosses_row, as point_in_ring) once, then a point is inside iff an odd number of them
+    // lie right of it.
     crossings.clear();
-    for (std::size_t a = 0, b = ring.size() - 1; a < ring.size(); b = a++) {
-      const Eigen::Vector2d& u = ring[a];
-      const Eigen::Vector2d& w = ring[b];
-      if ((u.y() > t) != (w.y() > t)) crossings.push_back((w.x() - u.x()) * (t - u.y()) / (w.y() - u.y()) + u.x());
-    }
+    for (std::size_t a = 0, b = ring.size() - 1; a < ring.size(); b = a++)
+      if (double x = 0.0; edge_crosses_row(ring[a], ring[b], t, x)) crossings.push_back(x);
     if (crossings.empty()) continue;
     for (int i = 0; i < nx; ++i) {
       const Eigen::Vector2d st(lo.x() + (i + 0.5) * size.x() / nx, t);

@@ -56,11 +56,8 @@ std::vector<Eigen::Vector2d> project_to_basis(std::span<const Eigen::Vector3f> v
 bool point_in_ring(std::span<const Eigen::Vector2d> ring, const Eigen::Vector2d& p) {
   bool in = false;
   for (std::size_t a = 0, b = ring.size() - 1; a < ring.size(); b = a++) {
-    const Eigen::Vector2d& u = ring[a];
-    const Eigen::Vector2d& w = ring[b];
-    if ((u.y() > p.y()) != (w.y() > p.y()) &&
-        p.x() < (w.x() - u.x()) * (p.y() - u.y()) / (w.y() - u.y()) + u.x())
-      in = !in;
+    double x = 0.0;
+    if (edge_crosses_row(ring[a], ring[b], p.y(), x) && p.x() < x) in = !in;
   }
   return in;
 }

@@ -64,6 +64,15 @@ Eigen::Vector3d vertex_centroid(std::span<const Eigen::Vector3f> vertices);
 /// The vertices projected orthogonally into `basis`: (s, t) = basis.to_2d(v), same order.
 std::vector<Eigen::Vector2d> project_to_basis(std::span<const Eigen::Vector3f> vertices, const PlaneBasis& basis);
 
+/// Where the ring edge u–w crosses the horizontal line at height y, when it counts for the
+/// even-odd rule (exactly one of its ends lies above y): x = (w_x − u_x)(y − u_y)/(w_y − u_y) + u_x.
+/// A point (x_p, y) is inside a ring iff an odd number of its edges cross right of it (x_p < x).
+inline bool edge_crosses_row(const Eigen::Vector2d& u, const Eigen::Vector2d& w, double y, double& x) {
+  if ((u.y() > y) == (w.y() > y)) return false;
+  x = (w.x() - u.x()) * (y - u.y()) / (w.y() - u.y()) + u.x();
+  return true;
+}
+
 /// Even-odd rule: is `p` inside the ring (either orientation, closing vertex optional)?
 bool point_in_ring(std::span<const Eigen::Vector2d> ring, const Eigen::Vector2d& p);
 
