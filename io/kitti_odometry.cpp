@@ -290,6 +290,14 @@ KittiOdometrySequence open_kitti_odometry(const fs::path& sequence_dir,
   return seq;
 }
 
+void check_frame_size(const KittiOdometrySequence& sequence, const std::filesystem::path& image, int width,
+                      int height) {
+  if (sequence.camera.width > 0 && (width != sequence.camera.width || height != sequence.camera.height))
+    throw InputError("KITTI frame '" + image.string() + "': size " + std::to_string(width) + "x" +
+                     std::to_string(height) + " differs from the sequence's " +
+                     std::to_string(sequence.camera.width) + "x" + std::to_string(sequence.camera.height));
+}
+
 StereoFrame load_kitti_frame(const KittiOdometrySequence& sequence, std::size_t index) {
   if (index >= sequence.size())
     throw InputError("KITTI sequence '" + sequence.root.string() + "': frame " +
@@ -308,12 +316,7 @@ StereoFrame load_kitti_frame(const KittiOdometrySequence& sequence, std::size_t 
                      std::to_string(frame.right.cols) + "x" + std::to_string(frame.right.rows) +
                      " differs from the left image " + std::to_string(frame.left.cols) + "x" +
                      std::to_string(frame.left.rows));
-  if (sequence.camera.width > 0 &&
-      (frame.left.cols != sequence.camera.width || frame.left.rows != sequence.camera.height))
-    throw InputError("KITTI frame '" + sequence.left_images[index].string() + "': size " +
-                     std::to_string(frame.left.cols) + "x" + std::to_string(frame.left.rows) +
-                     " differs from the sequence's " + std::to_string(sequence.camera.width) + "x" +
-                     std::to_string(sequence.camera.height));
+  check_frame_size(sequence, sequence.left_images[index], frame.left.cols, frame.left.rows);
   frame.camera = sequence.camera;
   if (!sequence.times_s.empty()) frame.timestamp_s = sequence.times_s[index];
   if (!sequence.poses.empty()) frame.pose = sequence.poses[index];

@@ -71,6 +71,11 @@ KittiOdometrySequence open_kitti_odometry(const std::filesystem::path& sequence_
                                           const std::optional<std::filesystem::path>& poses_file =
                                               std::nullopt);
 
+/// Throws InputError naming `image` when width×height differs from the sequence's camera size
+/// (when the calibration gives one).
+void check_frame_size(const KittiOdometrySequence& sequence, const std::filesystem::path& image, int width,
+                      int height);
+
 /// Loads frame `index`: decodes both images (colour BGR; the right one on a second thread at the
 /// same time), checks equal sizes, attaches the camera, timestamp and pose. Throws InputError
 /// naming the image on failure.

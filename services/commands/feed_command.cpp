@@ -68,11 +68,7 @@ void add_feed_command(CLI::App& app, CommandContext& context) {
       if (encoding == io::ImageEncoding::kPng && io::is_png_file(left) && io::is_png_file(right)) {
         // PNG files go out as they are: the daemon decodes them exactly as load_kitti_frame would.
         message = io::to_lcm_png(index, sequence.camera, io::read_png_bytes(left), io::read_png_bytes(right), utime);
-        if (sequence.camera.width > 0 &&
-            (message.width != sequence.camera.width || message.height != sequence.camera.height))
-          throw InputError("feed: frame '" + left.string() + "' is " + std::to_string(message.width) + "x" +
-                           std::to_string(message.height) + ", the sequence's calibration says " +
-                           std::to_string(sequence.camera.width) + "x" + std::to_string(sequence.camera.height));
+        io::check_frame_size(sequence, left, message.width, message.height);
       } else {
         StereoFrame frame = io::load_kitti_frame(sequence, index);
         frame.frame_id = index;
