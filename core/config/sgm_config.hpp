@@ -42,6 +42,13 @@ struct SgmConfig {
   /// %, reject when the second best (|Δd| > 1) is within this margin; 0 = off. Off by default:
   /// on all Middlebury + KITTI samples together it removed more good pixels than bad ones.
   int uniqueness_ratio = 0;
+  /// 3×3 median of the winner maps before the left-right check (Hirschmüller 2008, §3.4): the
+  /// output disparity, and the integer left and right winners the check compares, are each
+  /// replaced by the median of their 3×3 neighbourhood. An isolated wrong winner on either side
+  /// then no longer rejects a correct pixel, nor survives as an outlier. On all Middlebury,
+  /// KITTI and synthetic samples together it lowered the all-pixel error of every pair and the
+  /// error of the estimated pixels, raw SGM and planes alike (docs/PERFORMANCE.md, "Median").
+  bool median_filter = true;
   bool lr_check = true;          ///< left-right consistency from the same aggregated volume
   int lr_max_diff_px = 2;        ///< |d_L(x) − d_R(x − d_L)| allowed
   int speckle_window_size = 100; ///< max region size (px) removed by cv::filterSpeckles; 0 = off
@@ -69,6 +76,7 @@ void visit_fields(SgmConfig& c, Visitor&& visit) {
   visit("p2_slope", c.p2_slope);
   visit("subpixel", c.subpixel);
   visit("uniqueness_ratio", c.uniqueness_ratio);
+  visit("median_filter", c.median_filter);
   visit("lr_check", c.lr_check);
   visit("lr_max_diff_px", c.lr_max_diff_px);
   visit("speckle_window_size", c.speckle_window_size);

@@ -24,7 +24,7 @@ namespace planecell::stereo::detail {
 /// parked sum in place, and selects (select_row) on that row.
 class RowMeeting {
  public:
-  RowMeeting(int width, int height, int dp, const SgmConfig& config, cv::Mat& disparity,
+  RowMeeting(int width, int height, int dp, const SgmConfig& config, Winners& winners,
              std::uint16_t* parked, SelectRowFunction select);
   struct Row {
     std::uint16_t* sum;         ///< where the pass writes its sum: the parked row
@@ -40,7 +40,7 @@ class RowMeeting {
   std::uint16_t* parked_row(int y);
   int width_, dp_;
   const SgmConfig& config_;
-  cv::Mat& disparity_;
+  Winners& winners_;
   std::uint16_t* parked_;
   SelectRowFunction select_;
   std::unique_ptr<std::atomic<int>[]> state_;

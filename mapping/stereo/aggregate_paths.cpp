@@ -8,7 +8,8 @@
 /// it needs (cost_row: no W·H·D cost volume), keeps only one row of L_r per path (in place), and
 /// sums its paths for the current row: the first pass to reach a row writes that partial sum
 /// into a [y][x][d] uint16 "parked" volume, the second adds its own paths to it in place and
-/// runs the winner-take-all for that row (select_row). With two threads the passes run
+/// runs the winner-take-all for that row (select_row; the median and left-right check follow
+/// on the whole image, filter_winners). With two threads the passes run
 /// concurrently and meet in the middle of the image. The per-pixel update has kernels
 /// computing the same integers: portable C++, AVX2 (16 disparities per vector with uint16 row
 /// buffers, or 32 with uint8 ones when narrow_entries_fit and D_p is a multiple of 32) and
@@ -191,8 +192,8 @@ void run_passes(PassFunction pass, const CostInputs& costs, CostRowFunction cost
 }  // namespace
 
 RowMeeting::RowMeeting(int width, int height, int dp, const SgmConfig& config,
-                       cv::Mat& disparity, std::uint16_t* parked, SelectRowFunction select)
-    : width_(width), dp_(dp), config_(config), disparity_(disparity), parked_(parked),
+                       Winners& winners, std::uint16_t* parked, SelectRowFunction select)
+    : width_(width), dp_(dp), config_(config), winners_(winners), parked_(parked),
       select_(select),
       state_(std::make_unique<std::atomic<int>[]>(static_cast<std::size_t>(height))) {
   for (int y = 0; y < height; ++y) state_[static_cast<std::size_t>(y)].store(kFree);
@@ -214,7 +215,7 @@ void RowMeeting::finish_row(int y, const Row& row) {
     state_[static_cast<std::size_t>(y)].store(kParked, std::memory_order_release);
     return;
   }
-  select_(row.sum, width_, config_, disparity_.ptr<float>(y));
+  select_(row.sum, width_, config_, winners_.row(y));
 }
 
 std::uint16_t* RowMeeting::parked_row(int y) {
@@ -255,8 +256,8 @@ cv::Mat aggregate_and_select(const CostInputs& costs, CostRowFunction cost_row,
     throw std::invalid_argument("SGM: aggregation kernel not supported on this CPU/build");
   const int dp = padded_disparities(config.max_disparity);
   CV_Assert(parked.size >= static_cast<std::size_t>(gray_left.cols) * gray_left.rows * dp);
-  cv::Mat disparity(gray_left.size(), CV_32F);
-  RowMeeting meeting(gray_left.cols, gray_left.rows, dp, config, disparity, parked.get(),
+  Winners winners(gray_left.cols, gray_left.rows);
+  RowMeeting meeting(gray_left.cols, gray_left.rows, dp, config, winners, parked.get(),
                      kernel == AggregationKernel::avx512 ? &select_row_avx512 : &select_row);
   // 8 paths: each pass aggregates 4 (horizontal, vertical, diagonal, anti-diagonal);
   // 4 paths: each pass aggregates horizontal + vertical.
@@ -268,7 +269,7 @@ cv::Mat aggregate_and_select(const CostInputs& costs, CostRowFunction cost_row,
 #endif
   if (kernel == AggregationKernel::avx512) pass = &run_pass_avx512;
   run_passes(pass, costs, cost_row, gray_left, config, meeting);
-  return disparity;
+  return filter_winners(winners, config);
 }
 
 }  // namespace planecell::stereo::detail

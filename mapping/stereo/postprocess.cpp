@@ -1,8 +1,9 @@
 /// Disparity selection on the aggregated cost S (Eq. 2) and the post-filters: winner-take-all,
-/// uniqueness ratio, sub-pixel parabola, left-right check, small-speckle removal.
+/// uniqueness ratio, sub-pixel parabola, 3×3 median, left-right check, small-speckle removal.
 #include <cmath>
 #include <limits>
 #include <opencv2/calib3d.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "mapping/stereo/sgm_detail.hpp"
 
@@ -96,24 +97,34 @@ inline short round_half_away(float v) {
 
 }  // namespace
 
-void select_row(std::uint16_t* S, int width, const SgmConfig& config, float* out) {
+Winners::Winners(int width, int height)
+    : disparity(height, width, CV_32F), left(height, width, CV_16U), right(height, width, CV_16U) {}
+
+WinnerRow Winners::row(int y) {
+  return {disparity.ptr<float>(y), left.ptr<std::uint16_t>(y), right.ptr<std::uint16_t>(y)};
+}
+
+void select_row(std::uint16_t* S, int width, const SgmConfig& config, const WinnerRow& out) {
   const int d_max = config.max_disparity;
   const int dp = padded_disparities(d_max);
   if (d_max < dp)
     for (int x = 0; x < width; ++x)
       std::fill(S + static_cast<std::size_t>(x) * dp + d_max, S + static_cast<std::size_t>(x + 1) * dp,
                 kMaxCost);
-  thread_local std::vector<std::uint32_t> keys;
   if (config.lr_check) {
+    thread_local std::vector<std::uint32_t> keys;
     keys.resize(static_cast<std::size_t>(width + dp));
     right_winners(S, width, dp, keys.data());
+    for (int x_r = 0; x_r < width; ++x_r)
+      out.right[x_r] = static_cast<std::uint16_t>(keys[static_cast<std::size_t>(width - 1 - x_r)]);
   }
   for (int x = 0; x < width; ++x) {
     std::uint16_t* s = S + static_cast<std::size_t>(x) * dp;
     const std::uint16_t best = min_cost(s, dp);
     const int d = first_index_of(s, dp, best);
-    bool valid = x - d >= 0;
-    if (valid && config.uniqueness_ratio > 0) {
+    out.left[x] = static_cast<std::uint16_t>(d);
+    bool unique = true;
+    if (config.uniqueness_ratio > 0) {
       // Second best outside d−1 … d+1: hide the three, take the minimum, restore. (With ratio 0
       // the test is second ≥ best, always true: skipped.)
       const int lo = std::max(0, d - 1), hi = std::min(d_max - 1, d + 1);
@@ -121,20 +132,51 @@ void select_row(std::uint16_t* S, int width, const SgmConfig& config, float* out
       for (int k = lo; k <= hi; ++k) saved[k - lo] = s[k], s[k] = kMaxCost;
       const std::uint16_t second = min_cost(s, dp);
       for (int k = lo; k <= hi; ++k) s[k] = saved[k - lo];
-      valid = is_unique(best, second, config.uniqueness_ratio);
+      unique = is_unique(best, second, config.uniqueness_ratio);
     }
-    if (valid && config.lr_check) {
-      const int d_right = static_cast<int>(keys[static_cast<std::size_t>(width - 1 - (x - d))] & 0xFFFFu);
-      valid = std::abs(d - d_right) <= config.lr_max_diff_px;
-    }
-    if (!valid) {
-      out[x] = kNaN;
+    if (!unique) {
+      out.disparity[x] = kNaN;
     } else if (config.subpixel && d > 0 && d < d_max - 1) {
-      out[x] = subpixel_parabola(d, s[d - 1], s[d], s[d + 1]);
+      out.disparity[x] = subpixel_parabola(d, s[d - 1], s[d], s[d + 1]);
     } else {
-      out[x] = static_cast<float>(d);
+      out.disparity[x] = static_cast<float>(d);
     }
   }
+}
+
+cv::Mat filter_winners(Winners& winners, const SgmConfig& config) {
+  cv::Mat& disparity = winners.disparity;
+  if (config.median_filter) {
+    const cv::Mat not_unique = disparity != disparity;
+    const bool any_not_unique = cv::countNonZero(not_unique) > 0;
+    if (any_not_unique) {
+      cv::Mat as_float;
+      winners.left.convertTo(as_float, CV_32F);
+      as_float.copyTo(disparity, not_unique);
+    }
+    // Each median into a new matrix: cv::medianBlur cannot work in place.
+    const auto median = [](cv::Mat& m) {
+      cv::Mat filtered;
+      cv::medianBlur(m, filtered, 3);
+      m = filtered;
+    };
+    median(disparity);
+    if (any_not_unique) disparity.setTo(kNaN, not_unique);
+    median(winners.left);
+    if (config.lr_check) median(winners.right);
+  }
+  for (int y = 0; y < disparity.rows; ++y) {
+    float* out = disparity.ptr<float>(y);
+    const std::uint16_t* left = winners.left.ptr<std::uint16_t>(y);
+    const std::uint16_t* right = winners.right.ptr<std::uint16_t>(y);
+    for (int x = 0; x < disparity.cols; ++x) {
+      const int d = left[x];
+      const bool valid =
+          x - d >= 0 && (!config.lr_check || std::abs(d - right[x - d]) <= config.lr_max_diff_px);
+      if (!valid) out[x] = kNaN;
+    }
+  }
+  return disparity;
 }
 
 void remove_speckles(cv::Mat& disparity, const SgmConfig& config) {

@@ -1,4 +1,4 @@
-/// Disparity selection (select_row: winner-take-all, uniqueness, left-right check, sub-pixel) in
+/// Disparity selection (select_row: winner-take-all, uniqueness, right winners, sub-pixel) in
 /// AVX-512BW: 32 disparities (uint16) per vector for the minimum, 16 (uint32 keys) for the
 /// right-image winners. Same results as select_row in postprocess.cpp. Everything below the
 /// target pragma is compiled for AVX-512BW/VL only and reached only when
@@ -99,50 +99,49 @@ inline int first_index_of(const std::uint16_t* s, int dp, std::uint16_t value) {
 
 }  // namespace
 
-void select_row_avx512(std::uint16_t* S, int width, const SgmConfig& config, float* out) {
+void select_row_avx512(std::uint16_t* S, int width, const SgmConfig& config,
+                       const WinnerRow& out) {
   const int d_max = config.max_disparity;
   const int dp = padded_disparities(d_max);
   if (d_max < dp)
     for (int x = 0; x < width; ++x)
       std::fill(S + static_cast<std::size_t>(x) * dp + d_max,
                 S + static_cast<std::size_t>(x + 1) * dp, kMaxCost);
-  thread_local std::vector<std::uint32_t> keys;
   if (config.lr_check) {
+    thread_local std::vector<std::uint32_t> keys;
     keys.resize(static_cast<std::size_t>(width + dp + 32));
     right_winners(S, width, dp, keys.data());
+    for (int x_r = 0; x_r < width; ++x_r)
+      out.right[x_r] = static_cast<std::uint16_t>(keys[static_cast<std::size_t>(width - 1 - x_r)]);
   }
   for (int x = 0; x < width; ++x) {
     std::uint16_t* s = S + static_cast<std::size_t>(x) * dp;
     const std::uint16_t best = min_cost(s, dp);
     const int d = first_index_of(s, dp, best);
-    bool valid = x - d >= 0;
-    if (valid && config.uniqueness_ratio > 0) {
+    out.left[x] = static_cast<std::uint16_t>(d);
+    bool unique = true;
+    if (config.uniqueness_ratio > 0) {
       // Second best outside d−1 … d+1: hide the three, take the minimum, restore.
       const int lo = std::max(0, d - 1), hi = std::min(d_max - 1, d + 1);
       std::uint16_t saved[3];
       for (int k = lo; k <= hi; ++k) saved[k - lo] = s[k], s[k] = kMaxCost;
       const std::uint16_t second = min_cost(s, dp);
       for (int k = lo; k <= hi; ++k) s[k] = saved[k - lo];
-      valid = is_unique(best, second, config.uniqueness_ratio);
+      unique = is_unique(best, second, config.uniqueness_ratio);
     }
-    if (valid && config.lr_check) {
-      const int d_right =
-          static_cast<int>(keys[static_cast<std::size_t>(width - 1 - (x - d))] & 0xFFFFu);
-      valid = std::abs(d - d_right) <= config.lr_max_diff_px;
-    }
-    if (!valid) {
-      out[x] = kNaN;
+    if (!unique) {
+      out.disparity[x] = kNaN;
     } else if (config.subpixel && d > 0 && d < d_max - 1) {
-      out[x] = subpixel_parabola(d, s[d - 1], s[d], s[d + 1]);
+      out.disparity[x] = subpixel_parabola(d, s[d - 1], s[d], s[d + 1]);
     } else {
-      out[x] = static_cast<float>(d);
+      out.disparity[x] = static_cast<float>(d);
     }
   }
 }
 
 #else
 
-void select_row_avx512(std::uint16_t*, int, const SgmConfig&, float*) {
+void select_row_avx512(std::uint16_t*, int, const SgmConfig&, const WinnerRow&) {
   throw std::logic_error("SGM: the AVX-512 selection is not compiled in");
 }
 

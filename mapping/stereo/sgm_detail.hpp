@@ -127,16 +127,40 @@ void cost_row_avx512(const CostInputs& in, const ReversedRightRow& right, int x_
                      std::uint8_t* out);
 bool cost_row_avx512_supported();
 
-/// Winner-take-all with sub-pixel refinement, uniqueness and left-right check on one row of the
-/// aggregated cost S(x, d) = Σ_r L_r (Eq. 2), layout [x][d_padded]. Writes float disparity
-/// (NaN = rejected) into `out`. `S` is modified (padding lanes set to 0xFFFF).
-void select_row(std::uint16_t* S, int width, const SgmConfig& config, float* out);
+/// One image row of the winner-take-all, before the image-wide filters (filter_winners).
+struct WinnerRow {
+  float* disparity;     ///< sub-pixel disparity of the left winner d_L(x); NaN = not unique
+  std::uint16_t* left;  ///< d_L(x) = argmin_d S(x, d) (smallest d on ties)
+  /// d_R(x_r) = argmin_d S(x_r + d, d) over x_r + d < W (smallest d on ties): the right image's
+  /// winner from the same volume. Written only when config.lr_check.
+  std::uint16_t* right;
+};
+
+/// The winner maps of a whole image: disparity CV_32F, left and right CV_16U.
+struct Winners {
+  cv::Mat disparity, left, right;
+  Winners(int width, int height);
+  WinnerRow row(int y);
+};
+
+/// Winner-take-all with sub-pixel refinement and uniqueness on one row of the aggregated cost
+/// S(x, d) = Σ_r L_r (Eq. 2), layout [x][d_padded], plus the right image's winners for the
+/// left-right check. `S` is modified (padding lanes set to 0xFFFF).
+void select_row(std::uint16_t* S, int width, const SgmConfig& config, const WinnerRow& out);
 
 /// select_row in AVX-512BW (same results); only when
 /// aggregation_kernel_supported(AggregationKernel::avx512).
-void select_row_avx512(std::uint16_t* S, int width, const SgmConfig& config, float* out);
+void select_row_avx512(std::uint16_t* S, int width, const SgmConfig& config,
+                       const WinnerRow& out);
 using SelectRowFunction = void (*)(std::uint16_t* S, int width, const SgmConfig& config,
-                                   float* out);
+                                   const WinnerRow& out);
+
+/// The image-wide filters on the winners, in place; returns winners.disparity (NaN = invalid).
+/// With config.median_filter, each of the three maps becomes its 3×3 median (cv::medianBlur;
+/// the disparity of pixels rejected as not unique is taken as d_L for the median and stays
+/// rejected). Then a pixel is invalid when its match leaves the right image, x − d_L < 0, or,
+/// with config.lr_check, when |d_L(x) − d_R(x − d_L(x))| > lr_max_diff_px.
+cv::Mat filter_winners(Winners& winners, const SgmConfig& config);
 
 /// Parabola through (d−1, s_m), (d, s_0), (d+1, s_p): d + (s_m − s_p) / (2 (s_m + s_p − 2 s_0)).
 inline float subpixel_parabola(int d, int s_m, int s_0, int s_p) {
@@ -163,7 +187,8 @@ bool aggregation_kernel_supported(AggregationKernel kernel);
 /// The fastest supported kernel: AVX-512BW, else AVX2, else portable.
 AggregationKernel best_aggregation_kernel();
 
-/// Eq. 2 over all paths for the whole image: returns the disparity before speckle removal.
+/// Eq. 2 over all paths for the whole image, then the winners and filter_winners: returns the
+/// disparity before speckle removal.
 /// Each aggregation pass computes its own cost rows (`cost_row`, no cost volume); `parked`
 /// (≥ W·H·D_p values) holds the partial sums handed between the two passes.
 /// Throws std::invalid_argument when `kernel` is not supported.

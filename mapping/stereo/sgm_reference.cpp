@@ -85,14 +85,15 @@ cv::Mat compute_disparity_reference(const cv::Mat& left, const cv::Mat& right,
     for (std::size_t k = 0; k < S.size(); ++k) S[k] += L[k];
   }
 
-  // Winner-take-all, uniqueness, left-right check (right winners from the same S), sub-pixel.
-  cv::Mat disparity(H, W, CV_32F, cv::Scalar(std::numeric_limits<float>::quiet_NaN()));
+  // Winner-take-all, uniqueness, sub-pixel and the right winners (from the same S); then the
+  // image-wide filters (median, left-right check) shared with the fast path.
+  detail::Winners winners(W, H);
   for (int y = 0; y < H; ++y) {
-    std::vector<int> d_right(static_cast<std::size_t>(W), -1);
     for (int xr = 0; xr < W; ++xr) {
-      int best = std::numeric_limits<int>::max();
+      int best = std::numeric_limits<int>::max(), d_right = 0;
       for (int d = 0; d < D && xr + d < W; ++d)
-        if (S[idx(xr + d, y, d)] < best) best = S[idx(xr + d, y, d)], d_right[static_cast<std::size_t>(xr)] = d;
+        if (S[idx(xr + d, y, d)] < best) best = S[idx(xr + d, y, d)], d_right = d;
+      winners.right.at<std::uint16_t>(y, xr) = static_cast<std::uint16_t>(d_right);
     }
     for (int x = 0; x < W; ++x) {
       int best = std::numeric_limits<int>::max(), d_best = 0;
@@ -101,17 +102,17 @@ cv::Mat compute_disparity_reference(const cv::Mat& left, const cv::Mat& right,
       int second = 0xFFFF;
       for (int d = 0; d < D; ++d)
         if (std::abs(d - d_best) > 1) second = std::min(second, S[idx(x, y, d)]);
-      bool valid = x - d_best >= 0 && detail::is_unique(best, second, c.uniqueness_ratio);
-      if (valid && c.lr_check)
-        valid = std::abs(d_best - d_right[static_cast<std::size_t>(x - d_best)]) <= c.lr_max_diff_px;
-      if (!valid) continue;
-      disparity.at<float>(y, x) =
-          (c.subpixel && d_best > 0 && d_best < D - 1)
+      winners.left.at<std::uint16_t>(y, x) = static_cast<std::uint16_t>(d_best);
+      winners.disparity.at<float>(y, x) =
+          !detail::is_unique(best, second, c.uniqueness_ratio)
+              ? std::numeric_limits<float>::quiet_NaN()
+          : (c.subpixel && d_best > 0 && d_best < D - 1)
               ? detail::subpixel_parabola(d_best, S[idx(x, y, d_best - 1)], best,
                                           S[idx(x, y, d_best + 1)])
               : static_cast<float>(d_best);
     }
   }
+  cv::Mat disparity = detail::filter_winners(winners, c);
   detail::remove_speckles(disparity, c);
   return disparity;
 }

@@ -378,8 +378,106 @@ TEST_P(SgmScene, LeftRightCheckInvalidatesOccludedStrip) {
   EXPECT_GE(fraction_correct(checked, truth, 1.0f), 0.9);
 }
 
+/// A textured slanted plane with sensor noise on both images: the 3×3 median of the winners
+/// (SgmConfig::median_filter) must leave more pixels within 1 px of the truth than no median,
+/// both by keeping correct pixels the left-right check would drop and by replacing outliers.
+TEST_P(SgmScene, MedianOfTheWinnersLeavesMoreCorrectPixelsOnANoisyPair) {
+  auto pair = render(200, 120, [](int x, int y) { return 10.0f + 0.08f * x + 0.04f * y; }, 7);
+  cv::RNG rng(11);
+  for (cv::Mat* image : {&pair.left, &pair.right}) {
+    cv::Mat noise(image->size(), CV_16S);
+    rng.fill(noise, cv::RNG::NORMAL, 0.0, 12.0);
+    cv::Mat noisy;
+    cv::add(*image, noise, noisy, cv::noArray(), CV_8U);
+    *image = noisy;
+  }
+  SgmConfig with_median = config();
+  SgmConfig without_median = with_median;
+  without_median.median_filter = false;
+  const double with = fraction_correct(compute_disparity(pair.left, pair.right, with_median),
+                                       pair.truth, 1.0f);
+  const double without = fraction_correct(
+      compute_disparity(pair.left, pair.right, without_median), pair.truth, 1.0f);
+  EXPECT_GT(with, without + 0.01) << "with median " << with << ", without " << without;
+}
+
 INSTANTIATE_TEST_SUITE_P(Paths, SgmScene, ::testing::Values(8, 4),
                          [](const auto& info) { return std::to_string(info.param) + "paths"; });
+
+/// filter_winners on hand-made winner maps (one row band of 7 × 40, every true disparity 5).
+class FilterWinners : public ::testing::Test {
+ protected:
+  static constexpr int kWidth = 40, kHeight = 7, kTrue = 5;
+  detail::Winners winners{kWidth, kHeight};
+  void SetUp() override {
+    winners.disparity.setTo(static_cast<float>(kTrue) + 0.25f);
+    winners.left.setTo(kTrue);
+    winners.right.setTo(kTrue);
+  }
+  SgmConfig config(bool median) const {
+    SgmConfig c;
+    c.median_filter = median;
+    c.lr_max_diff_px = 2;
+    return c;
+  }
+};
+
+TEST_F(FilterWinners, MatchesLeftOfTheRightImageAreInvalid) {
+  const cv::Mat d = detail::filter_winners(winners, config(false));
+  for (int x = 0; x < kWidth; ++x)
+    EXPECT_EQ(std::isnan(d.at<float>(3, x)), x < kTrue) << x;  // x − d < 0
+}
+
+TEST_F(FilterWinners, AnIsolatedWrongLeftWinnerIsRejectedWithoutMedianAndReplacedWithIt) {
+  // Left pixel (3, 30) wins d = 20: its right pixel 10 wins 5, |20 − 5| > 2.
+  winners.left.at<std::uint16_t>(3, 30) = 20;
+  winners.disparity.at<float>(3, 30) = 20.0f;
+  detail::Winners copy{kWidth, kHeight};
+  winners.disparity.copyTo(copy.disparity);
+  winners.left.copyTo(copy.left);
+  winners.right.copyTo(copy.right);
+  const cv::Mat without = detail::filter_winners(winners, config(false));
+  EXPECT_TRUE(std::isnan(without.at<float>(3, 30)));
+  const cv::Mat with = detail::filter_winners(copy, config(true));
+  EXPECT_FLOAT_EQ(with.at<float>(3, 30), kTrue + 0.25f);  // median of its 3×3 neighbourhood
+}
+
+TEST_F(FilterWinners, AnIsolatedWrongRightWinnerNoLongerRejectsACorrectPixel) {
+  // Right pixel (3, 20) wins d = 12: left pixel 25 (d = 5) fails the check without the median.
+  winners.right.at<std::uint16_t>(3, 20) = 12;
+  detail::Winners copy{kWidth, kHeight};
+  winners.disparity.copyTo(copy.disparity);
+  winners.left.copyTo(copy.left);
+  winners.right.copyTo(copy.right);
+  const cv::Mat without = detail::filter_winners(winners, config(false));
+  EXPECT_TRUE(std::isnan(without.at<float>(3, 25)));
+  EXPECT_EQ(cv::countNonZero(without(cv::Rect(kTrue, 0, kWidth - kTrue, kHeight)) ==
+                             without(cv::Rect(kTrue, 0, kWidth - kTrue, kHeight))),
+            (kWidth - kTrue) * kHeight - 1);
+  const cv::Mat with = detail::filter_winners(copy, config(true));
+  EXPECT_FLOAT_EQ(with.at<float>(3, 25), kTrue + 0.25f);
+}
+
+TEST_F(FilterWinners, ABandOfOccludedPixelsSurvivesTheMedianAndIsRejected) {
+  // Columns 20–23 of every row claim d = 12, inconsistent with the right winners (5): a band
+  // 4 px wide, not an isolated outlier, so the median keeps it and the check rejects it.
+  for (int y = 0; y < kHeight; ++y)
+    for (int x = 20; x < 24; ++x) {
+      winners.left.at<std::uint16_t>(y, x) = 12;
+      winners.disparity.at<float>(y, x) = 12.0f;
+    }
+  const cv::Mat d = detail::filter_winners(winners, config(true));
+  for (int x = 21; x < 23; ++x) EXPECT_TRUE(std::isnan(d.at<float>(3, x))) << x;
+  EXPECT_FLOAT_EQ(d.at<float>(3, 10), kTrue + 0.25f);
+}
+
+TEST_F(FilterWinners, APixelRejectedAsNotUniqueStaysRejectedAndDoesNotSpread) {
+  winners.disparity.at<float>(3, 30) = std::numeric_limits<float>::quiet_NaN();
+  const cv::Mat d = detail::filter_winners(winners, config(true));
+  EXPECT_TRUE(std::isnan(d.at<float>(3, 30)));
+  for (int x = 29; x <= 31; x += 2) EXPECT_FLOAT_EQ(d.at<float>(3, x), kTrue + 0.25f) << x;
+  EXPECT_FLOAT_EQ(d.at<float>(2, 30), kTrue + 0.25f);
+}
 
 TEST(Sgm, ColourAndGreyInputGiveTheSameDisparity) {
   const auto pair = render(120, 64, [](int, int) { return 9.0f; }, 8);
