@@ -139,6 +139,33 @@ void add_kitti_like(const fs::path& dir, StereoDataset dataset, const std::strin
   }
 }
 
+/// Adds the Scene Flow frames in `dir`: DIR/disparity/left/NAME.pfm with the pair
+/// DIR/<pass>/left|right/NAME.png, pass = frames_cleanpass, frames_finalpass, RGB_cleanpass or
+/// RGB_finalpass (the first that holds the pair), and the optional DIR/occlusion/left/NAME.png.
+void add_sceneflow(const fs::path& dir, std::vector<StereoSampleRef>& out) {
+  const fs::path disparities = dir / "disparity" / "left";
+  if (!is_dir(disparities)) return;
+  std::error_code ec;
+  for (const auto& entry : fs::directory_iterator(disparities, ec)) {
+    const fs::path gt = entry.path();
+    if (!entry.is_regular_file() || lower(gt.extension().string()) != ".pfm") continue;
+    const fs::path image = fs::path(gt.stem().string() + ".png");
+    for (const char* pass : {"frames_cleanpass", "frames_finalpass", "RGB_cleanpass", "RGB_finalpass"}) {
+      if (!is_file(dir / pass / "left" / image) || !is_file(dir / pass / "right" / image)) continue;
+      StereoSampleRef ref;
+      ref.dataset = StereoDataset::kSceneFlow;
+      ref.name = dir.filename().string() + "/" + gt.stem().string();
+      ref.left = dir / pass / "left" / image;
+      ref.right = dir / pass / "right" / image;
+      ref.gt_disparity = gt;
+      if (is_file(dir / "occlusion" / "left" / image))
+        ref.occlusion_mask = dir / "occlusion" / "left" / image;
+      out.push_back(std::move(ref));
+      break;
+    }
+  }
+}
+
 void add_samples_in(const fs::path& dir, StereoDataset dataset, std::vector<StereoSampleRef>& out) {
   switch (dataset) {
     case StereoDataset::kMiddlebury:
@@ -149,6 +176,9 @@ void add_samples_in(const fs::path& dir, StereoDataset dataset, std::vector<Ster
                      true, out);
       add_kitti_like(dir, dataset, "kitti2015", "image_2", "image_3", "disp_occ_0", "disp_noc_0",
                      true, out);
+      break;
+    case StereoDataset::kSceneFlow:
+      add_sceneflow(dir, out);
       break;
     case StereoDataset::kSynthetic:
       add_kitti_like(dir, dataset, dir.filename().string(), "image_2", "image_3", "disp_occ_0",
@@ -263,8 +293,10 @@ StereoDataset parse_stereo_dataset(const std::string& name) {
   const std::string n = lower(name);
   if (n == "middlebury") return StereoDataset::kMiddlebury;
   if (n == "kitti") return StereoDataset::kKitti;
+  if (n == "sceneflow") return StereoDataset::kSceneFlow;
   if (n == "synthetic") return StereoDataset::kSynthetic;
-  throw ConfigError("stereo dataset '" + name + "': unknown (use middlebury, kitti or synthetic)");
+  throw ConfigError("stereo dataset '" + name +
+                    "': unknown (use middlebury, kitti, sceneflow or synthetic)");
 }
 
 std::vector<StereoSampleRef> find_stereo_samples(StereoDataset dataset, const fs::path& root) {
@@ -291,6 +323,11 @@ StereoSample load_stereo_sample(const StereoSampleRef& ref) {
   if (ref.gt_scale <= 0.0 || !std::isfinite(ref.gt_scale))
     throw InputError("stereo sample '" + ref.name + "': GT scale must be > 0");
   auto read_gt = [&](const fs::path& path) {
+    if (ref.dataset == StereoDataset::kSceneFlow) {
+      cv::Mat gt = read_pfm(path);  // disparity in px, every pixel known
+      check_same_size(sample.left, gt, path, ref.left);
+      return gt;
+    }
     cv::Mat gt = ref.dataset == StereoDataset::kMiddlebury ? read_middlebury_gt(path, ref.gt_scale)
                                                            : read_kitti_disparity(path);
     if (ref.dataset != StereoDataset::kMiddlebury && ref.gt_scale != 256.0)
@@ -300,6 +337,12 @@ StereoSample load_stereo_sample(const StereoSampleRef& ref) {
   };
   sample.gt_disparity = read_gt(ref.gt_disparity);
   if (!ref.gt_disparity_noc.empty()) sample.gt_disparity_noc = read_gt(ref.gt_disparity_noc);
+  if (!ref.occlusion_mask.empty()) {
+    const cv::Mat occluded = read_image(ref.occlusion_mask, false);
+    check_same_size(sample.left, occluded, ref.occlusion_mask, ref.left);
+    sample.gt_disparity_noc = sample.gt_disparity.clone();
+    sample.gt_disparity_noc.setTo(std::numeric_limits<float>::quiet_NaN(), occluded != 0);
+  }
 
   int calib_disparities = 0;
   const int width = sample.left.cols, height = sample.left.rows;

@@ -1,6 +1,6 @@
 #pragma once
 /// Stereo pairs with ground-truth disparity: Middlebury 2001–2006 and 2014, KITTI stereo 2012/2015,
-/// and synthetic sequences (planecell synth). Used by eval-stereo and the tests.
+/// Scene Flow (FlyingThings3D, Monkaa, Driving) and synthetic sequences (planecell synth). Used by eval-stereo and the tests.
 #include <filesystem>
 #include <optional>
 #include <string>
@@ -12,9 +12,9 @@
 
 namespace planecell::io {
 
-enum class StereoDataset { kMiddlebury, kKitti, kSynthetic };
+enum class StereoDataset { kMiddlebury, kKitti, kSceneFlow, kSynthetic };
 
-/// Parses "middlebury" | "kitti" | "synthetic" (throws ConfigError otherwise).
+/// Parses "middlebury" | "kitti" | "sceneflow" | "synthetic" (throws ConfigError otherwise).
 StereoDataset parse_stereo_dataset(const std::string& name);
 
 /// Where one pair and its ground truth live (found by find_stereo_samples).
@@ -24,6 +24,9 @@ struct StereoSampleRef {
   std::filesystem::path left, right;
   std::filesystem::path gt_disparity;      ///< all pixels with GT (occluded included)
   std::filesystem::path gt_disparity_noc;  ///< non-occluded GT, empty when the dataset has none
+  /// Scene Flow: occlusion mask (non-zero = occluded in the right view); the non-occluded GT is
+  /// gt_disparity with these pixels unknown. Empty when absent.
+  std::filesystem::path occlusion_mask;
   double gt_scale = 1.0;  ///< stored value / gt_scale = disparity (Middlebury 8-bit, KITTI 256)
 };
 

@@ -92,7 +92,10 @@ void add_eval_stereo_command(CLI::App& app, CommandContext& context) {
       "every pair with ground truth (3D accuracy within 10/20/50/100 cm when a camera is known).\n"
       "Example: planecell eval-stereo --dataset middlebury --root data/middlebury --json m.json\n"
       "         planecell eval-stereo --dataset kitti --root data/kitti2015 --report-md k15.md");
-  command->add_option("--dataset", options->dataset, "middlebury, kitti or synthetic")->required();
+  command->add_option("--dataset", options->dataset,
+                      "middlebury, kitti, sceneflow (FlyingThings3D layout: disparity/left/*.pfm,\n"
+                      "frames_cleanpass|RGB_cleanpass/left|right/*.png, optional occlusion/left) or synthetic")
+      ->required();
   command->add_option("--root", options->root, "Folder searched recursively for pairs")->required();
   command->add_option("--json", options->json, "Also write the table as JSON");
   command->add_option("--report-md", options->report_md,

@@ -42,6 +42,7 @@ const StereoSampleRef& by_name(const std::vector<StereoSampleRef>& refs, const s
 TEST(StereoDatasets, ParsesDatasetNames) {
   EXPECT_EQ(parse_stereo_dataset("middlebury"), StereoDataset::kMiddlebury);
   EXPECT_EQ(parse_stereo_dataset("kitti"), StereoDataset::kKitti);
+  EXPECT_EQ(parse_stereo_dataset("sceneflow"), StereoDataset::kSceneFlow);
   EXPECT_EQ(parse_stereo_dataset("synthetic"), StereoDataset::kSynthetic);
   EXPECT_THROW(parse_stereo_dataset("tum"), ConfigError);
 }
@@ -184,6 +185,48 @@ TEST(Synthetic, EveryGroundTruthFrameIsASampleWithTheCalibratedCamera) {
   ASSERT_TRUE(s.camera.has_value());
   EXPECT_DOUBLE_EQ(s.camera->baseline_m, 0.3);  // colour pair: 150 / 500
   EXPECT_EQ(s.camera->width, 10);
+}
+
+TEST(SceneFlow, PfmGroundTruthAndOcclusionMaskGiveAllAndNonOccludedDisparity) {
+  test::ScratchDir dir;
+  const fs::path seq = dir / "flying";
+  constexpr int kWidth = 40, kHeight = 20;
+  write_pair(seq / "RGB_cleanpass" / "left" / "A-0001.png",
+             seq / "RGB_cleanpass" / "right" / "A-0001.png", kWidth, kHeight);
+  cv::Mat gt(kHeight, kWidth, CV_32F, cv::Scalar(12.5f));
+  gt.at<float>(3, 4) = 33.25f;  // largest: the search range rounds ⌊33.25⌋ + 1 up to 48
+  write_pfm(seq / "disparity" / "left" / "A-0001.pfm", gt);
+  cv::Mat occluded(kHeight, kWidth, CV_8UC1, cv::Scalar(0));
+  occluded(cv::Rect(0, 0, 5, kHeight)).setTo(255);  // 5 occluded columns
+  write_image(seq / "occlusion" / "left" / "A-0001.png", occluded);
+  // GT without a pair, and a pair in a folder with no disparity/: both ignored.
+  write_pfm(seq / "disparity" / "left" / "A-0002.pfm", gt);
+  write_pair(dir / "other" / "RGB_cleanpass" / "left" / "A-0001.png",
+             dir / "other" / "RGB_cleanpass" / "right" / "A-0001.png", kWidth, kHeight);
+
+  const auto refs = find_stereo_samples(StereoDataset::kSceneFlow, dir.path());
+  ASSERT_EQ(refs.size(), 1u);
+  EXPECT_EQ(refs[0].name, "flying/A-0001");
+  const StereoSample sample = load_stereo_sample(refs[0]);
+  EXPECT_FLOAT_EQ(sample.gt_disparity.at<float>(10, 2), 12.5f);
+  EXPECT_FLOAT_EQ(sample.gt_disparity.at<float>(3, 4), 33.25f);
+  EXPECT_EQ(sample.max_disparity, 48);
+  ASSERT_FALSE(sample.gt_disparity_noc.empty());
+  EXPECT_EQ(cv::countNonZero(sample.gt_disparity_noc == sample.gt_disparity_noc),
+            (kWidth - 5) * kHeight);
+  EXPECT_TRUE(std::isnan(sample.gt_disparity_noc.at<float>(10, 4)));
+  EXPECT_FLOAT_EQ(sample.gt_disparity_noc.at<float>(10, 5), 12.5f);
+}
+
+TEST(SceneFlow, AnOcclusionMaskOfAnotherSizeIsNamed) {
+  test::ScratchDir dir;
+  write_pair(dir / "frames_cleanpass" / "left" / "0006.png",
+             dir / "frames_cleanpass" / "right" / "0006.png", 40, 20);
+  write_pfm(dir / "disparity" / "left" / "0006.pfm", cv::Mat(20, 40, CV_32F, cv::Scalar(4.0f)));
+  write_image(dir / "occlusion" / "left" / "0006.png", cv::Mat(10, 40, CV_8UC1, cv::Scalar(0)));
+  const auto refs = find_stereo_samples(StereoDataset::kSceneFlow, dir.path());
+  ASSERT_EQ(refs.size(), 1u);
+  EXPECT_CONTAINS(input_error_of([&] { load_stereo_sample(refs[0]); }), "occlusion");
 }
 
 TEST(StereoDatasets, MissingRootIsNamed) {

@@ -14,6 +14,7 @@
 #include "io/stereo_datasets.hpp"
 #include "mapping/planecell/extraction.hpp"
 #include "mapping/stereo/sgm.hpp"
+#include "support/small_street.hpp"
 #include "support/test_data.hpp"
 
 namespace planecell::extraction {
@@ -116,11 +117,65 @@ TEST_P(PlanecellAccuracy, DensePlaneDisparityBeatsRawMatchers) {
   }
 }
 
+/// Issue 3's accuracy target on every real pair present: the project's SGM (defaults) has a
+/// lower all-pixel error (Middlebury and Scene Flow bad-2, KITTI D1; a missing value counts as
+/// wrong) than OpenCV StereoSGBM in both MODE_SGBM and MODE_SGBM_3WAY (eval-stereo's settings),
+/// and, where the dataset has them, on the non-occluded pixels too.
+class RawSgmAccuracy : public ::testing::TestWithParam<DatasetCase> {};
+
+/// Expects the project's SGM to beat OpenCV in both modes on every pair of `refs`.
+void expect_sgm_beats_opencv(const std::vector<io::StereoSampleRef>& refs, bool kitti) {
+  for (const auto& ref : refs) {
+    const io::StereoSample sample = io::load_stereo_sample(ref);
+    const cv::Mat ours = project_sgm(sample.left, sample.right, sample.max_disparity);
+    for (const int mode : {cv::StereoSGBM::MODE_SGBM, cv::StereoSGBM::MODE_SGBM_3WAY}) {
+      const cv::Mat theirs = services::eval::opencv_sgbm_disparity(
+          sample.left, sample.right, sample.max_disparity, mode);
+      for (const cv::Mat* truth : {&sample.gt_disparity, &sample.gt_disparity_noc}) {
+        if (truth->empty()) continue;
+        const double e_ours = score(ours, *truth, ours, kitti).error_all;
+        const double e_theirs = score(theirs, *truth, theirs, kitti).error_all;
+        std::printf("%-24s %s %s: planecell SGM %6.2f%%, OpenCV %6.2f%%\n", ref.name.c_str(),
+                    truth == &sample.gt_disparity ? "all" : "noc",
+                    mode == cv::StereoSGBM::MODE_SGBM ? "MODE_SGBM     " : "MODE_SGBM_3WAY",
+                    e_ours, e_theirs);
+        EXPECT_LT(e_ours, e_theirs) << ref.name << " mode " << mode;
+      }
+    }
+  }
+}
+
+TEST_P(RawSgmAccuracy, BeatsOpenCvStereoSgbmOnEveryPair) {
+  const auto root = test::shared_data(GetParam().folder);
+  if (!root) GTEST_SKIP() << "shared data '" << GetParam().folder << "' absent";
+  const auto refs = io::find_stereo_samples(GetParam().dataset, *root);
+  if (refs.empty()) GTEST_SKIP() << "no pairs with ground truth under " << root->string();
+  expect_sgm_beats_opencv(refs, GetParam().dataset == io::StereoDataset::kKitti);
+}
+
+/// The same on the project's own KITTI-size synthetic streets (D1, exact GT), two worlds.
+TEST(RawSgmAccuracySynthetic, BeatsOpenCvStereoSgbmOnKittiSizeStreets) {
+  test::ScratchDir dir;
+  for (const std::uint64_t seed : {1u, 3u})
+    test::write_small_street(dir / ("street" + std::to_string(seed)), 2, seed, 1242, 375);
+  const auto refs = io::find_stereo_samples(io::StereoDataset::kSynthetic, dir.path());
+  ASSERT_EQ(refs.size(), 4u);
+  expect_sgm_beats_opencv(refs, true);
+}
+
 INSTANTIATE_TEST_SUITE_P(
     RealPairs, PlanecellAccuracy,
     ::testing::Values(DatasetCase{"middlebury", io::StereoDataset::kMiddlebury, 600},
                       DatasetCase{"kitti2012", io::StereoDataset::kKitti, 800},
                       DatasetCase{"kitti2015", io::StereoDataset::kKitti, 800}),
+    [](const auto& info) { return std::string(info.param.folder); });
+
+INSTANTIATE_TEST_SUITE_P(
+    RealPairs, RawSgmAccuracy,
+    ::testing::Values(DatasetCase{"middlebury", io::StereoDataset::kMiddlebury, 0},
+                      DatasetCase{"kitti2012", io::StereoDataset::kKitti, 0},
+                      DatasetCase{"kitti2015", io::StereoDataset::kKitti, 0},
+                      DatasetCase{"sceneflow_sample", io::StereoDataset::kSceneFlow, 0}),
     [](const auto& info) { return std::string(info.param.folder); });
 
 }  // namespace
