@@ -77,9 +77,16 @@ std::string fixed(double v, int precision = 2) {
   return s.str();
 }
 
-void append_row(std::ostringstream& t, const std::string& pair, const MethodResult& m) {
+/// Width of the pair column: the longest pair name plus a space, at least 24.
+int pair_column_width(const std::vector<PairResult>& pairs) {
+  std::size_t longest = 23;
+  for (const auto& pair : pairs) longest = std::max(longest, pair.pair.size());
+  return static_cast<int>(longest) + 1;
+}
+
+void append_row(std::ostringstream& t, int width, const std::string& pair, const MethodResult& m) {
   const auto& a = m.all;
-  t << std::left << std::setw(24) << pair.substr(0, 23) << std::setw(18) << m.method << std::right
+  t << std::left << std::setw(width) << pair << std::setw(18) << m.method << std::right
     << std::setw(7) << fixed(a.all_pct(a.bad1)) << std::setw(7) << fixed(a.all_pct(a.bad2))
     << std::setw(7) << fixed(a.all_pct(a.bad4)) << std::setw(7) << fixed(a.all_pct(a.d1))
     << std::setw(8) << fixed(a.density_pct(), 1) << " |" << std::setw(7)
@@ -91,9 +98,10 @@ void append_row(std::ostringstream& t, const std::string& pair, const MethodResu
     << fixed(m.time_ms, 1) << "\n";
 }
 
-void append_points_row(std::ostringstream& t, const std::string& pair, const MethodResult& m) {
+void append_points_row(std::ostringstream& t, int width, const std::string& pair,
+                       const MethodResult& m) {
   if (m.points.gt_pixels == 0) return;
-  t << std::left << std::setw(24) << pair.substr(0, 23) << std::setw(18) << m.method << std::right;
+  t << std::left << std::setw(width) << pair << std::setw(18) << m.method << std::right;
   for (std::size_t k = 0; k < kPointRadiiM.size(); ++k)
     t << std::setw(9) << fixed(m.points.within_pct(k));
   t << "\n";
@@ -362,11 +370,11 @@ void append_segmentation_lines(std::ostringstream& t, const std::vector<PairResu
     }
     any = true;
     total += *pair.segmentation;
-    t << std::left << std::setw(24) << pair.pair << std::right
+    t << std::left << std::setw(pair_column_width(pairs)) << pair.pair << std::right
       << segmentation_summary(*pair.segmentation) << "\n";
   }
   if (any)
-    t << std::left << std::setw(24) << "OVERALL (pooled)" << std::right
+    t << std::left << std::setw(pair_column_width(pairs)) << "OVERALL (pooled)" << std::right
       << segmentation_summary(total) << "\n";
 }
 
@@ -398,7 +406,8 @@ std::string format_table(const std::vector<PairResult>& pairs,
   t << "Figures in %, over all GT pixels (a missing estimate counts as an error) | over the\n"
        "estimated pixels only (MAE in px) | non-occluded GT (when the dataset has it) | time.\n"
        "bad-t: |d - d_gt| > t px (GT pixel units); D1: > 3 px and > 5 % of d_gt (KITTI).\n\n";
-  t << std::left << std::setw(24) << "pair" << std::setw(18) << "method" << std::right
+  const int width = pair_column_width(pairs);
+  t << std::left << std::setw(width) << "pair" << std::setw(18) << "method" << std::right
     << std::setw(7) << "bad1" << std::setw(7) << "bad2" << std::setw(7) << "bad4" << std::setw(7)
     << "D1" << std::setw(8) << "dens"
     << " |" << std::setw(7) << "bad2e" << std::setw(7) << "D1e" << std::setw(6) << "MAE"
@@ -406,24 +415,24 @@ std::string format_table(const std::vector<PairResult>& pairs,
     << " |" << std::setw(8) << "ms"
     << "\n";
   for (const auto& pair : pairs)
-    for (const auto& m : pair.methods) append_row(t, pair.pair, m);
+    for (const auto& m : pair.methods) append_row(t, width, pair.pair, m);
   t << "\n";
   const auto total = pooled_results(pairs, methods);
-  for (const auto& m : total) append_row(t, "OVERALL (pooled px)", m);
+  for (const auto& m : total) append_row(t, width, "OVERALL (pooled px)", m);
   bool any_points = false;
   for (const auto& m : total) any_points |= m.points.gt_pixels > 0;
   if (any_points) {
     t << "\n3D accuracy (paper Table 1), pairs with a camera: % of all GT pixels whose point\n"
          "X(u, v, d) lies within r of the GT point X(u, v, d_gt) (missing counts as outside).\n\n";
-    t << std::left << std::setw(24) << "pair" << std::setw(18) << "method" << std::right;
+    t << std::left << std::setw(width) << "pair" << std::setw(18) << "method" << std::right;
     for (double r : kPointRadiiM)
       t << std::setw(9) << ("<=" + std::to_string(std::lround(100 * r)) + "cm");
     t << "\n";
     for (const auto& pair : pairs)
-      for (const auto& m : pair.methods) append_points_row(t, pair.pair, m);
+      for (const auto& m : pair.methods) append_points_row(t, width, pair.pair, m);
     t << "\n";
-    for (const auto& m : total) append_points_row(t, "OVERALL (pooled px)", m);
-    t << std::left << std::setw(24) << "paper Table 1" << std::setw(18) << "SGBM + planecell" << std::right;
+    for (const auto& m : total) append_points_row(t, width, "OVERALL (pooled px)", m);
+    t << std::left << std::setw(width) << "paper Table 1" << std::setw(18) << "SGBM + planecell" << std::right;
     for (double pct : kPaperTable1SgbmPct) t << std::setw(9) << fixed(pct);
     t << "   (its own KITTI frames: the row to beat)\n";
   }

@@ -74,6 +74,18 @@ TEST(StereoMetrics, MethodsRunOnASampleAndScoreAShiftedTexture) {
   EXPECT_EQ(json.find("\"points\""), std::string::npos);  // no camera → no 3D figures
   EXPECT_NE(format_table({result}, methods).find("OVERALL"), std::string::npos);
   EXPECT_EQ(format_table({result}, methods).find("3D accuracy"), std::string::npos);
+  // A pair name longer than the default column (Scene Flow: "sceneflow_sample/A-0032-0006")
+  // is printed whole, and the columns after it stay aligned with the header.
+  PairResult long_name = result;
+  long_name.pair = "sceneflow_sample/A-0032-0006";
+  const std::string table = format_table({long_name}, methods);
+  const auto row = table.find(long_name.pair + " planecell-sgm");
+  ASSERT_NE(row, std::string::npos) << table;
+  const auto header = table.find("pair ");
+  ASSERT_NE(header, std::string::npos);
+  const auto line_start = [&](std::size_t at) { return table.rfind('\n', at) + 1; };
+  EXPECT_EQ(table.find("method", header) - line_start(header),
+            table.find("planecell-sgm", row) - line_start(row));
 }
 
 TEST(StereoMetrics, PointAccuracyOnHandComputedPixels) {
