@@ -139,27 +139,41 @@ void add_kitti_like(const fs::path& dir, StereoDataset dataset, const std::strin
   }
 }
 
-/// Adds the Scene Flow frames in `dir`: DIR/disparity/left/NAME.pfm with the pair
-/// DIR/<pass>/left|right/NAME.png, pass = frames_cleanpass, frames_finalpass, RGB_cleanpass or
-/// RGB_finalpass (the first that holds the pair), and the optional DIR/occlusion/left/NAME.png.
+/// Adds the Scene Flow frames of `dir` when it is a left-view disparity folder,
+/// ROOT/disparity/REST/left (REST may be empty: the flat layout of the samples, or e.g.
+/// TRAIN/A/0032, 35mm_focallength/scene_forwards/fast as in the released FlyingThings3D, Driving
+/// and Monkaa archives): every NAME.pfm there with its pair ROOT/<pass>/REST/left|right/NAME.png,
+/// pass = frames_cleanpass, frames_finalpass, RGB_cleanpass or RGB_finalpass (the first that
+/// holds the pair), and the optional occlusion mask ROOT/occlusion/REST/left/NAME.png.
 void add_sceneflow(const fs::path& dir, std::vector<StereoSampleRef>& out) {
-  const fs::path disparities = dir / "disparity" / "left";
-  if (!is_dir(disparities)) return;
+  if (dir.filename() != "left") return;
+  const std::vector<fs::path> parts(dir.begin(), dir.end());
+  std::size_t at = parts.size();
+  for (std::size_t i = parts.size() - 1; i-- > 0;)
+    if (parts[i] == "disparity") {
+      at = i;
+      break;
+    }
+  if (at == parts.size()) return;
+  fs::path root, rest;
+  for (std::size_t i = 0; i < at; ++i) root /= parts[i];
+  for (std::size_t i = at + 1; i + 1 < parts.size(); ++i) rest /= parts[i];
   std::error_code ec;
-  for (const auto& entry : fs::directory_iterator(disparities, ec)) {
+  for (const auto& entry : fs::directory_iterator(dir, ec)) {
     const fs::path gt = entry.path();
     if (!entry.is_regular_file() || lower(gt.extension().string()) != ".pfm") continue;
     const fs::path image = fs::path(gt.stem().string() + ".png");
     for (const char* pass : {"frames_cleanpass", "frames_finalpass", "RGB_cleanpass", "RGB_finalpass"}) {
-      if (!is_file(dir / pass / "left" / image) || !is_file(dir / pass / "right" / image)) continue;
+      const fs::path views = root / pass / rest;
+      if (!is_file(views / "left" / image) || !is_file(views / "right" / image)) continue;
       StereoSampleRef ref;
       ref.dataset = StereoDataset::kSceneFlow;
-      ref.name = dir.filename().string() + "/" + gt.stem().string();
-      ref.left = dir / pass / "left" / image;
-      ref.right = dir / pass / "right" / image;
+      ref.name = (root.filename() / rest / gt.stem()).generic_string();
+      ref.left = views / "left" / image;
+      ref.right = views / "right" / image;
       ref.gt_disparity = gt;
-      if (is_file(dir / "occlusion" / "left" / image))
-        ref.occlusion_mask = dir / "occlusion" / "left" / image;
+      if (const fs::path mask = root / "occlusion" / rest / "left" / image; is_file(mask))
+        ref.occlusion_mask = mask;
       out.push_back(std::move(ref));
       break;
     }

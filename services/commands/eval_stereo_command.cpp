@@ -93,8 +93,8 @@ void add_eval_stereo_command(CLI::App& app, CommandContext& context) {
       "Example: planecell eval-stereo --dataset middlebury --root data/middlebury --json m.json\n"
       "         planecell eval-stereo --dataset kitti --root data/kitti2015 --report-md k15.md");
   command->add_option("--dataset", options->dataset,
-                      "middlebury, kitti, sceneflow (FlyingThings3D layout: disparity/left/*.pfm,\n"
-                      "frames_cleanpass|RGB_cleanpass/left|right/*.png, optional occlusion/left) or synthetic")
+                      "middlebury, kitti, sceneflow (Scene Flow layout: disparity/[REST/]left/*.pfm beside\n"
+                      "frames_cleanpass|frames_finalpass/[REST/]left|right/*.png, optional occlusion/) or synthetic")
       ->required();
   command->add_option("--root", options->root, "Folder searched recursively for pairs")->required();
   command->add_option("--json", options->json, "Also write the table as JSON");

@@ -218,6 +218,26 @@ TEST(SceneFlow, PfmGroundTruthAndOcclusionMaskGiveAllAndNonOccludedDisparity) {
   EXPECT_FLOAT_EQ(sample.gt_disparity_noc.at<float>(10, 5), 12.5f);
 }
 
+TEST(SceneFlow, FindsFramesInTheReleasedArchivesNestedLayout) {
+  // FlyingThings3D as released: disparity/TRAIN/A/0032/left/0006.pfm beside
+  // frames_finalpass/TRAIN/A/0032/left|right/0006.png; the right-view disparity is not a sample.
+  test::ScratchDir dir;
+  const fs::path root = dir / "FlyingThings3D";
+  write_pair(root / "frames_finalpass" / "TRAIN" / "A" / "0032" / "left" / "0006.png",
+             root / "frames_finalpass" / "TRAIN" / "A" / "0032" / "right" / "0006.png", 40, 20);
+  const cv::Mat gt(20, 40, CV_32F, cv::Scalar(7.0f));
+  write_pfm(root / "disparity" / "TRAIN" / "A" / "0032" / "left" / "0006.pfm", gt);
+  write_pfm(root / "disparity" / "TRAIN" / "A" / "0032" / "right" / "0006.pfm", gt);
+  const auto refs = find_stereo_samples(StereoDataset::kSceneFlow, dir.path());
+  ASSERT_EQ(refs.size(), 1u);
+  EXPECT_EQ(refs[0].name, "FlyingThings3D/TRAIN/A/0032/0006");
+  EXPECT_EQ(refs[0].left, root / "frames_finalpass" / "TRAIN" / "A" / "0032" / "left" / "0006.png");
+  EXPECT_TRUE(refs[0].occlusion_mask.empty());
+  const StereoSample sample = load_stereo_sample(refs[0]);
+  EXPECT_FLOAT_EQ(sample.gt_disparity.at<float>(5, 5), 7.0f);
+  EXPECT_TRUE(sample.gt_disparity_noc.empty());
+}
+
 TEST(SceneFlow, AnOcclusionMaskOfAnotherSizeIsNamed) {
   test::ScratchDir dir;
   write_pair(dir / "frames_cleanpass" / "left" / "0006.png",
