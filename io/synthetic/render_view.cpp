@@ -413,4 +413,29 @@ SyntheticView render_view(const SyntheticWorld& world, const Pose& T_world_cam,
   return view;
 }
 
+cv::Mat non_occluded_disparity(const SyntheticView& view, float tolerance_px) {
+  const cv::Mat& left = view.disparity;
+  const cv::Mat& right = view.right_disparity;
+  if (left.type() != CV_32F || right.type() != CV_32F || left.size() != right.size())
+    throw InputError("non_occluded_disparity: left and right disparity must be CV_32F of one size");
+  cv::Mat noc(left.size(), CV_32F, cv::Scalar(std::numeric_limits<float>::quiet_NaN()));
+  const int width = left.cols;
+  for (int v = 0; v < left.rows; ++v) {
+    const float* d_left = left.ptr<float>(v);
+    const float* d_right = right.ptr<float>(v);
+    float* out = noc.ptr<float>(v);
+    for (int u = 0; u < width; ++u) {
+      const float d = d_left[u];
+      if (!std::isfinite(d)) continue;
+      const float x = static_cast<float>(u) - d;
+      const int x0 = static_cast<int>(std::floor(x));
+      bool seen = false;
+      for (const int x_r : {x0, x0 + 1})
+        if (x_r >= 0 && x_r < width && std::abs(d_right[x_r] - d) <= tolerance_px) seen = true;
+      if (seen) out[u] = d;
+    }
+  }
+  return noc;
+}
+
 }  // namespace planecell::io

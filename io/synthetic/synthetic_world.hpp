@@ -133,9 +133,16 @@ struct SequenceStats {
 
 using ProgressCallback = std::function<void(std::size_t done, std::size_t total)>;
 
+/// The left disparity of the pixels the right camera sees too (KITTI's "noc" ground truth): d(u, v)
+/// where the match u − d lies in the right image and the right view's disparity at one of the two
+/// pixels around it, ⌊u − d⌋ or ⌈u − d⌉, is within `tolerance_px` of d (the same surface point);
+/// NaN elsewhere. A nearer surface hiding the point in the right view has a larger disparity there.
+cv::Mat non_occluded_disparity(const SyntheticView& view, float tolerance_px = 1.0f);
+
 /// Writes the KITTI odometry layout into out_dir: image_2/ and image_3/ (colour PNG NNNNNN.png),
 /// calib.txt (P0 = P2, P1 = P3), poses/00.txt (T_world_cam0), times.txt, plus ground truth
-/// disp_occ_0/ (KITTI 16-bit), surface_0/ (16-bit ids) and scene.yaml. Throws StorageError naming
+/// disp_occ_0/ and disp_noc_0/ (KITTI 16-bit: all pixels, and those visible in both views,
+/// non_occluded_disparity), surface_0/ (16-bit ids) and scene.yaml. Throws StorageError naming
 /// the path when out_dir cannot be created or written.
 SequenceStats write_sequence(const SyntheticWorld& world, const std::filesystem::path& out_dir,
                              const ProgressCallback& progress = {}, int png_compression = 1);

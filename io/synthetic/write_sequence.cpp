@@ -147,7 +147,7 @@ SequenceStats write_sequence(const SyntheticWorld& world, const std::filesystem:
                              const ProgressCallback& progress, int png_compression) {
   if (png_compression < 0 || png_compression > 9)
     throw ConfigError("write_sequence: png_compression must be in 0..9");
-  for (const char* sub : {"image_2", "image_3", "disp_occ_0", "surface_0", "poses"}) {
+  for (const char* sub : {"image_2", "image_3", "disp_occ_0", "disp_noc_0", "surface_0", "poses"}) {
     std::error_code ec;
     std::filesystem::create_directories(out_dir / sub, ec);
     if (ec)
@@ -192,6 +192,8 @@ SequenceStats write_sequence(const SyntheticWorld& world, const std::filesystem:
       const auto start = Clock::now();
       write_image(out_dir / "image_3" / name, view->right, png_compression);
       write_image(out_dir / "surface_0" / name, view->surface_id, png_compression);
+      write_kitti_disparity(out_dir / "disp_noc_0" / name, non_occluded_disparity(*view),
+                            png_compression);
       return elapsed_ms(start);
     });
     pending_frame = i;

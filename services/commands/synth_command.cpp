@@ -35,8 +35,8 @@ void add_synth_command(CLI::App& app, CommandContext& context) {
       "synth",
       "Render a synthetic KITTI-like street (textured planes) seen from a driving stereo rig.\n"
       "Writes the KITTI odometry layout (image_2/, image_3/, calib.txt, poses/00.txt, times.txt)\n"
-      "plus ground truth: disp_occ_0/ (KITTI 16-bit disparity), surface_0/ (16-bit surface ids,\n"
-      "0 = sky) and scene.yaml (every surface's plane and polygon). Deterministic per --seed.\n"
+      "plus ground truth: disp_occ_0/ (KITTI 16-bit disparity), disp_noc_0/ (the same where the right\n"
+      "camera sees the point too), surface_0/ (16-bit surface ids, 0 = sky) and scene.yaml (every surface's plane and polygon). Deterministic per --seed.\n"
       "Options override the `synth` section of --config.");
   command->add_option("-o,--out", options->out_dir, "Output folder (created if needed)")
       ->required();

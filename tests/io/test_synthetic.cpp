@@ -247,6 +247,40 @@ TEST(BoxWorld, DisparityMatchesHandComputedDepths) {
   EXPECT_NEAR(view.disparity.at<float>(0, u_ground), cam.fx * 0.54 / 14.0, 1e-4);
 }
 
+TEST(BoxWorld, NonOccludedDisparityDropsTheStripTheBoxHidesFromTheRightCamera) {
+  // The right camera sits 0.54 m to the right: left of the box face (Z = 6 m, d_box = fx·B/6),
+  // a strip of the surface behind it (disparity d_behind) d_box − d_behind px wide is hidden from
+  // it; the left border u − d < 0 (match outside the right image) is not seen either.
+  const SyntheticWorld world = make_box_world(320, 120, 1, 1);
+  const SyntheticView view = render_view(world, world.trajectory[0]);
+  const cv::Mat noc = non_occluded_disparity(view);
+  const StereoCamera& cam = world.camera;
+  const double d_box = cam.fx * 0.54 / 6.0;
+  for (const double y_m : {0.2, 1.2}) {  // beside the weak panel (Z = 10), beside the ground
+    const int v = static_cast<int>(std::lround(cam.cy + cam.fy * y_m / 6.0));
+    int u_edge = -1;
+    for (int u = 0; u < cam.width && u_edge < 0; ++u)
+      if (view.surface_id.at<std::uint16_t>(v, u) == 3) u_edge = u;
+    ASSERT_GT(u_edge, 30) << y_m;
+    int hidden = 0;
+    while (std::isnan(noc.at<float>(v, u_edge - 1 - hidden))) ++hidden;
+    const int u_behind = u_edge - 1 - hidden;  // first seen pixel left of the strip
+    const double d_behind = view.disparity.at<float>(v, u_behind);
+    EXPECT_NEAR(hidden, d_box - d_behind, 1.0) << "row " << v << ", d_behind " << d_behind;
+    // Beside the strip, and on the box, the disparity is kept as it is.
+    EXPECT_EQ(noc.at<float>(v, u_behind), view.disparity.at<float>(v, u_behind));
+    EXPECT_EQ(noc.at<float>(v, u_edge + 3), view.disparity.at<float>(v, u_edge + 3));
+    // The left border: u − d < 0 is never seen by the right camera.
+    for (int u = 0; u < 10; ++u) {
+      const float d = view.disparity.at<float>(v, u);
+      if (std::isfinite(d) && u - d < -1.0f) {
+        EXPECT_TRUE(std::isnan(noc.at<float>(v, u))) << u;
+      }
+    }
+  }
+  EXPECT_THROW(non_occluded_disparity(SyntheticView{}), InputError);
+}
+
 TEST(BoxWorld, WeaklyTexturedPanelHasLowContrast) {
   const SyntheticWorld world = make_box_world(320, 120, 1, 1);
   const SyntheticView view = render_view(world, world.trajectory[0]);
@@ -442,6 +476,10 @@ TEST(WriteSequence, WritesKittiLayoutWithGroundTruthAndScene) {
   ASSERT_EQ(ids.type(), CV_16UC1);
   EXPECT_EQ(cv::norm(ids, view.surface_id, cv::NORM_INF), 0.0);
   const cv::Mat disparity = read_kitti_disparity(dir / "disp_occ_0" / "000003.png");
+  const cv::Mat noc = read_kitti_disparity(dir / "disp_noc_0" / "000003.png");
+  const cv::Mat noc_expected = non_occluded_disparity(view);
+  EXPECT_EQ(cv::countNonZero(noc == noc), cv::countNonZero(noc_expected == noc_expected));
+  EXPECT_LT(cv::countNonZero(noc == noc), cv::countNonZero(disparity == disparity));
   for (int v = 0; v < disparity.rows; v += 2)
     for (int u = 0; u < disparity.cols; u += 2) {
       const float d = view.disparity.at<float>(v, u), read = disparity.at<float>(v, u);

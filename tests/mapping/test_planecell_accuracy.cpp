@@ -153,7 +153,8 @@ TEST_P(RawSgmAccuracy, BeatsOpenCvStereoSgbmOnEveryPair) {
   expect_sgm_beats_opencv(refs, GetParam().dataset == io::StereoDataset::kKitti);
 }
 
-/// The same on the project's own KITTI-size synthetic streets (D1, exact GT), two worlds.
+/// The same on the project's own KITTI-size synthetic streets (D1, exact GT, all and
+/// non-occluded pixels: the renderer writes disp_noc_0), two worlds.
 TEST(RawSgmAccuracySynthetic, BeatsOpenCvStereoSgbmOnKittiSizeStreets) {
   test::ScratchDir dir;
   for (const std::uint64_t seed : {1u, 3u})
