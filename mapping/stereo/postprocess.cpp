@@ -5,6 +5,7 @@
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "mapping/stereo/select_pass.hpp"
 #include "mapping/stereo/sgm_detail.hpp"
 
 #if defined(__AVX2__)
@@ -105,43 +106,7 @@ WinnerRow Winners::row(int y) {
 }
 
 void select_row(std::uint16_t* S, int width, const SgmConfig& config, const WinnerRow& out) {
-  const int d_max = config.max_disparity;
-  const int dp = padded_disparities(d_max);
-  if (d_max < dp)
-    for (int x = 0; x < width; ++x)
-      std::fill(S + static_cast<std::size_t>(x) * dp + d_max, S + static_cast<std::size_t>(x + 1) * dp,
-                kMaxCost);
-  if (config.lr_check) {
-    thread_local std::vector<std::uint32_t> keys;
-    keys.resize(static_cast<std::size_t>(width + dp));
-    right_winners(S, width, dp, keys.data());
-    for (int x_r = 0; x_r < width; ++x_r)
-      out.right[x_r] = static_cast<std::uint16_t>(keys[static_cast<std::size_t>(width - 1 - x_r)]);
-  }
-  for (int x = 0; x < width; ++x) {
-    std::uint16_t* s = S + static_cast<std::size_t>(x) * dp;
-    const std::uint16_t best = min_cost(s, dp);
-    const int d = first_index_of(s, dp, best);
-    out.left[x] = static_cast<std::uint16_t>(d);
-    bool unique = true;
-    if (config.uniqueness_ratio > 0) {
-      // Second best outside d−1 … d+1: hide the three, take the minimum, restore. (With ratio 0
-      // the test is second ≥ best, always true: skipped.)
-      const int lo = std::max(0, d - 1), hi = std::min(d_max - 1, d + 1);
-      std::uint16_t saved[3];
-      for (int k = lo; k <= hi; ++k) saved[k - lo] = s[k], s[k] = kMaxCost;
-      const std::uint16_t second = min_cost(s, dp);
-      for (int k = lo; k <= hi; ++k) s[k] = saved[k - lo];
-      unique = is_unique(best, second, config.uniqueness_ratio);
-    }
-    if (!unique) {
-      out.disparity[x] = kNaN;
-    } else if (config.subpixel && d > 0 && d < d_max - 1) {
-      out.disparity[x] = subpixel_parabola(d, s[d - 1], s[d], s[d + 1]);
-    } else {
-      out.disparity[x] = static_cast<float>(d);
-    }
-  }
+  select_row_with<&right_winners, &min_cost, &first_index_of, 0>(S, width, config, out);
 }
 
 cv::Mat filter_winners(Winners& winners, const SgmConfig& config) {
