@@ -112,8 +112,10 @@ void select_row(std::uint16_t* S, int width, const SgmConfig& config, const Winn
 cv::Mat filter_winners(Winners& winners, const SgmConfig& config) {
   cv::Mat& disparity = winners.disparity;
   if (config.median_filter) {
-    const cv::Mat not_unique = disparity != disparity;
-    const bool any_not_unique = cv::countNonZero(not_unique) > 0;
+    // Only the uniqueness test leaves NaN here; with it off there is nothing to mask.
+    cv::Mat not_unique;
+    if (config.uniqueness_ratio > 0) not_unique = disparity != disparity;
+    const bool any_not_unique = !not_unique.empty() && cv::countNonZero(not_unique) > 0;
     if (any_not_unique) {
       cv::Mat as_float;
       winners.left.convertTo(as_float, CV_32F);

@@ -414,6 +414,14 @@ class FilterWinners : public ::testing::Test {
     winners.left.setTo(kTrue);
     winners.right.setTo(kTrue);
   }
+  /// A deep copy, for running filter_winners (which filters in place) twice on one input.
+  detail::Winners copy() const {
+    detail::Winners out{kWidth, kHeight};
+    winners.disparity.copyTo(out.disparity);
+    winners.left.copyTo(out.left);
+    winners.right.copyTo(out.right);
+    return out;
+  }
   SgmConfig config(bool median) const {
     SgmConfig c;
     c.median_filter = median;
@@ -432,29 +440,23 @@ TEST_F(FilterWinners, AnIsolatedWrongLeftWinnerIsRejectedWithoutMedianAndReplace
   // Left pixel (3, 30) wins d = 20: its right pixel 10 wins 5, |20 − 5| > 2.
   winners.left.at<std::uint16_t>(3, 30) = 20;
   winners.disparity.at<float>(3, 30) = 20.0f;
-  detail::Winners copy{kWidth, kHeight};
-  winners.disparity.copyTo(copy.disparity);
-  winners.left.copyTo(copy.left);
-  winners.right.copyTo(copy.right);
+  detail::Winners copied = copy();
   const cv::Mat without = detail::filter_winners(winners, config(false));
   EXPECT_TRUE(std::isnan(without.at<float>(3, 30)));
-  const cv::Mat with = detail::filter_winners(copy, config(true));
+  const cv::Mat with = detail::filter_winners(copied, config(true));
   EXPECT_FLOAT_EQ(with.at<float>(3, 30), kTrue + 0.25f);  // median of its 3×3 neighbourhood
 }
 
 TEST_F(FilterWinners, AnIsolatedWrongRightWinnerNoLongerRejectsACorrectPixel) {
   // Right pixel (3, 20) wins d = 12: left pixel 25 (d = 5) fails the check without the median.
   winners.right.at<std::uint16_t>(3, 20) = 12;
-  detail::Winners copy{kWidth, kHeight};
-  winners.disparity.copyTo(copy.disparity);
-  winners.left.copyTo(copy.left);
-  winners.right.copyTo(copy.right);
+  detail::Winners copied = copy();
   const cv::Mat without = detail::filter_winners(winners, config(false));
   EXPECT_TRUE(std::isnan(without.at<float>(3, 25)));
   EXPECT_EQ(cv::countNonZero(without(cv::Rect(kTrue, 0, kWidth - kTrue, kHeight)) ==
                              without(cv::Rect(kTrue, 0, kWidth - kTrue, kHeight))),
             (kWidth - kTrue) * kHeight - 1);
-  const cv::Mat with = detail::filter_winners(copy, config(true));
+  const cv::Mat with = detail::filter_winners(copied, config(true));
   EXPECT_FLOAT_EQ(with.at<float>(3, 25), kTrue + 0.25f);
 }
 
@@ -472,8 +474,11 @@ TEST_F(FilterWinners, ABandOfOccludedPixelsSurvivesTheMedianAndIsRejected) {
 }
 
 TEST_F(FilterWinners, APixelRejectedAsNotUniqueStaysRejectedAndDoesNotSpread) {
+  // Only the uniqueness test leaves NaN in the winners.
+  SgmConfig c = config(true);
+  c.uniqueness_ratio = 10;
   winners.disparity.at<float>(3, 30) = std::numeric_limits<float>::quiet_NaN();
-  const cv::Mat d = detail::filter_winners(winners, config(true));
+  const cv::Mat d = detail::filter_winners(winners, c);
   EXPECT_TRUE(std::isnan(d.at<float>(3, 30)));
   for (int x = 29; x <= 31; x += 2) EXPECT_FLOAT_EQ(d.at<float>(3, x), kTrue + 0.25f) << x;
   EXPECT_FLOAT_EQ(d.at<float>(2, 30), kTrue + 0.25f);
