@@ -337,15 +337,20 @@ StereoSample load_stereo_sample(const StereoSampleRef& ref) {
   if (ref.gt_scale <= 0.0 || !std::isfinite(ref.gt_scale))
     throw InputError("stereo sample '" + ref.name + "': GT scale must be > 0");
   auto read_gt = [&](const fs::path& path) {
-    if (ref.dataset == StereoDataset::kSceneFlow) {
-      cv::Mat gt = read_pfm(path);  // disparity in px, every pixel known
-      check_same_size(sample.left, gt, path, ref.left);
-      return gt;
+    cv::Mat gt;
+    switch (ref.dataset) {
+      case StereoDataset::kMiddlebury:
+        gt = read_middlebury_gt(path, ref.gt_scale);
+        break;
+      case StereoDataset::kSceneFlow:
+        gt = read_pfm(path);  // disparity in px, every pixel known
+        break;
+      case StereoDataset::kKitti:
+      case StereoDataset::kSynthetic:
+        gt = read_kitti_disparity(path);  // value / 256
+        if (ref.gt_scale != 256.0) gt.convertTo(gt, CV_32F, 256.0 / ref.gt_scale);
+        break;
     }
-    cv::Mat gt = ref.dataset == StereoDataset::kMiddlebury ? read_middlebury_gt(path, ref.gt_scale)
-                                                           : read_kitti_disparity(path);
-    if (ref.dataset != StereoDataset::kMiddlebury && ref.gt_scale != 256.0)
-      gt.convertTo(gt, CV_32F, 256.0 / ref.gt_scale);  // read_kitti_disparity divides by 256
     check_same_size(sample.left, gt, path, ref.left);
     return gt;
   };
