@@ -356,7 +356,7 @@ std::string segmentation_summary(const SegmentationScores& s) {
 }
 
 /// The planecell segmentation lines of the pairs that have them, then their pooled figures.
-void append_segmentation_lines(std::ostringstream& t, const std::vector<PairResult>& pairs) {
+void append_segmentation_lines(std::ostringstream& t, int width, const std::vector<PairResult>& pairs) {
   SegmentationScores total;
   bool any = false;
   for (const auto& pair : pairs) {
@@ -370,11 +370,11 @@ void append_segmentation_lines(std::ostringstream& t, const std::vector<PairResu
     }
     any = true;
     total += *pair.segmentation;
-    t << std::left << std::setw(pair_column_width(pairs)) << pair.pair << std::right
+    t << std::left << std::setw(width) << pair.pair << std::right
       << segmentation_summary(*pair.segmentation) << "\n";
   }
   if (any)
-    t << std::left << std::setw(pair_column_width(pairs)) << "OVERALL (pooled)" << std::right
+    t << std::left << std::setw(width) << "OVERALL (pooled)" << std::right
       << segmentation_summary(total) << "\n";
 }
 
@@ -436,7 +436,7 @@ std::string format_table(const std::vector<PairResult>& pairs,
     for (double pct : kPaperTable1SgbmPct) t << std::setw(9) << fixed(pct);
     t << "   (its own KITTI frames: the row to beat)\n";
   }
-  append_segmentation_lines(t, pairs);
+  append_segmentation_lines(t, width, pairs);
   return t.str();
 }
 
