@@ -42,14 +42,14 @@ Pose RefineStage::refine(std::uint64_t frame_id, std::span<const Planecell> cell
   FrameRefinement record;
   record.frame_id = frame_id;
   record.input = input;
-  record.predicted = frames_.empty() ? input
-                                     : Pose(frames_.back().refined * frames_.back().input.inverse() * input);
+  // Odometry increment since the previous frame, with the estimated drift removed (Δ·exp(b·s)).
+  const Pose increment = frames_.empty() ? Pose::Identity() : Pose(frames_.back().input.inverse() * input);
+  const double step_m = increment.translation().norm();
+  const Pose drift_removed = refine::apply_correction(Pose::Identity(), drift_ * step_m);
+  record.predicted = frames_.empty() ? input : Pose(frames_.back().refined * increment * drift_removed);
   // Re-orthonormalise: the product of three poses carries round-off.
   record.predicted.linear() =
       Eigen::Quaterniond(record.predicted.linear()).normalized().toRotationMatrix();
-  // Distance driven since the previous frame (odometry increment): widens the prior.
-  const double step_m =
-      frames_.empty() ? 0.0 : (frames_.back().input.inverse() * input).translation().norm();
   const refine::PoseRefinement result =
       refine::refine_pose(cells_cam, record.predicted, map, camera, config_, step_m);
   record.refined = result.refined;
@@ -61,6 +61,20 @@ Pose RefineStage::refine(std::uint64_t frame_id, std::span<const Planecell> cell
   record.observable_directions = result.observable_directions;
   record.iterations = result.iterations;
   record.information_eigenvalues = result.information_eigenvalues;
+  if (result.status == refine::RefineStatus::kRefined && config_.drift_gain > 0.0 &&
+      step_m >= config_.min_drift_step_m) {
+    // ε = (R_predᵀ ω, R_predᵀ τ): the correction in the predicted camera frame; b += gain·ε/s.
+    const Eigen::Matrix3d to_camera = record.predicted.linear().transpose();
+    const Eigen::Vector3d omega = to_camera * result.correction.head<3>().eval();
+    const Eigen::Vector3d tau = to_camera * result.correction.tail<3>().eval();
+    drift_.head<3>() += (config_.drift_gain / step_m) * omega;
+    drift_.tail<3>() += (config_.drift_gain / step_m) * tau;
+    const double max_rotation = config_.max_drift_deg_per_m * std::numbers::pi / 180.0;
+    if (drift_.head<3>().norm() > max_rotation) drift_.head<3>() *= max_rotation / drift_.head<3>().norm();
+    if (drift_.tail<3>().norm() > config_.max_drift_per_m)
+      drift_.tail<3>() *= config_.max_drift_per_m / drift_.tail<3>().norm();
+  }
+  record.drift = drift_;
   if (!keep_records_) frames_.clear();
   frames_.push_back(record);
   return record.refined;
@@ -111,6 +125,7 @@ nlohmann::json to_json(const RefineSummary& s) {
                       {"iterations", f.iterations},
                       {"information_eigenvalues",
                        std::vector<double>(f.information_eigenvalues.data(), f.information_eigenvalues.data() + 6)},
+                      {"drift", std::vector<double>(f.drift.data(), f.drift.data() + 6)},
                       {"input_pose", pose_json(f.input)},
                       {"refined_pose", pose_json(f.refined)}});
   }

@@ -26,13 +26,16 @@ struct FrameRefinement {
   std::uint64_t frame_id = 0;
   std::string status;  ///< refine::to_string(RefineStatus)
   Pose input = Pose::Identity();      ///< the pose file's pose (odometry)
-  Pose predicted = Pose::Identity();  ///< refined_prev · input_prev⁻¹ · input (what was refined)
+  Pose predicted = Pose::Identity();  ///< refined_prev · (input_prev⁻¹ · input) · exp(b·s) (what was refined)
   Pose refined = Pose::Identity();    ///< what the map and store recorded
   Eigen::Matrix<double, 6, 1> correction = Eigen::Matrix<double, 6, 1>::Zero();  ///< (ω rad, τ m) on predicted
   std::size_t associations = 0;
   int observable_directions = 0;
   int iterations = 0;
   Eigen::Matrix<double, 6, 1> information_eigenvalues = Eigen::Matrix<double, 6, 1>::Zero();
+  /// The odometry drift estimate after this frame (rad/m ×3, m/m ×3, camera frame; see
+  /// RefineConfig::drift_gain), used for the next prediction.
+  Eigen::Matrix<double, 6, 1> drift = Eigen::Matrix<double, 6, 1>::Zero();
 };
 
 /// Input vs refined trajectory against ground truth (frames processed in this run).
@@ -57,8 +60,10 @@ class RefineStage {
 
   /// Refines frame `frame_id` seen with odometry pose `input` (cells in the camera frame) and
   /// returns the pose to transform, merge and store the frame with. Prediction: with the previous
-  /// processed frame's input P and refined Q, the pose refined is Q·P⁻¹·input (the odometry
-  /// increment applied to the corrected pose); the first frame uses `input`.
+  /// processed frame's input P and refined Q, the pose refined is Q·Δ·exp(b·s), Δ = P⁻¹·input
+  /// the odometry increment (length s) applied to the corrected pose and exp(b·s) = [R(ω_b s) |
+  /// τ_b s] the estimated drift removed (b = 0 unless RefineConfig::drift_gain > 0; b is updated
+  /// from each refined frame's correction); the first frame uses `input`.
   Pose refine(std::uint64_t frame_id, std::span<const Planecell> cells_cam, const Pose& input,
               const map::GlobalMap& map, const StereoCamera& camera);
 
@@ -71,6 +76,7 @@ class RefineStage {
   RefineConfig config_;
   bool keep_records_ = true;
   std::vector<FrameRefinement> frames_;  ///< every record (keep_records), else at most the last
+  Eigen::Matrix<double, 6, 1> drift_ = Eigen::Matrix<double, 6, 1>::Zero();  ///< b, see RefineConfig
 };
 
 /// Ground truth for replay's trajectory metrics: the sequence's own pose file (found as

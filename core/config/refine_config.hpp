@@ -47,6 +47,18 @@ struct RefineConfig {
   double prior_sigma_deg = 0.0;         ///< rotation floor (deg)
   double prior_sigma_m_per_m = 0.0;     ///< translation per metre driven (m/m)
   double prior_sigma_deg_per_m = 0.0;   ///< rotation per metre driven (deg/m)
+  // --- odometry drift estimate (0 = off) -------------------------------------------------------
+  /// Odometry errs with a persistent bias (wheel scale, yaw bias): each step's error, in the
+  /// step's camera frame and per metre driven, is estimated as b (rad/m ×3, m/m ×3) and removed
+  /// from the next predictions: Δ' = Δ·exp(b·s) for an increment Δ of length s. After each refined
+  /// frame, b ← clamp(b + drift_gain · ε / s), ε the correction in the predicted camera frame:
+  /// an integral term that drives the mean correction to zero (only observable directions are
+  /// corrected, so b learns only what the map measures). Steps shorter than min_drift_step_m do
+  /// not update b (a standing rig has no per-metre rate).
+  double drift_gain = 0.0;
+  double min_drift_step_m = 0.2;
+  double max_drift_per_m = 0.05;        ///< |τ_b| ≤ this (m/m) ...
+  double max_drift_deg_per_m = 0.5;     ///< ... and |ω_b| ≤ this (deg/m)
   // --- solver ---------------------------------------------------------------------------------
   std::string loss = "huber";           ///< "huber", "cauchy" or "none" (robust loss on distances)
   double loss_scale = 2.0;              ///< robust loss scale in σ (residuals are whitened)
@@ -81,6 +93,10 @@ void visit_fields(RefineConfig& c, Visitor&& visit) {
   visit("prior_sigma_deg", c.prior_sigma_deg);
   visit("prior_sigma_m_per_m", c.prior_sigma_m_per_m);
   visit("prior_sigma_deg_per_m", c.prior_sigma_deg_per_m);
+  visit("drift_gain", c.drift_gain);
+  visit("min_drift_step_m", c.min_drift_step_m);
+  visit("max_drift_per_m", c.max_drift_per_m);
+  visit("max_drift_deg_per_m", c.max_drift_deg_per_m);
   visit("loss", c.loss);
   visit("loss_scale", c.loss_scale);
   visit("max_iterations", c.max_iterations);

@@ -73,6 +73,10 @@ void validate(const RefineConfig& c) {
   if (!(c.prior_sigma_deg >= 0.0)) fail("prior_sigma_deg", "must be >= 0 (0 = no prior)");
   if (!(c.prior_sigma_m_per_m >= 0.0)) fail("prior_sigma_m_per_m", "must be >= 0");
   if (!(c.prior_sigma_deg_per_m >= 0.0)) fail("prior_sigma_deg_per_m", "must be >= 0");
+  if (!(c.drift_gain >= 0.0 && c.drift_gain <= 1.0)) fail("drift_gain", "must be in [0, 1] (0 = off)");
+  if (!(c.min_drift_step_m > 0.0)) fail("min_drift_step_m", "must be > 0");
+  if (!(c.max_drift_per_m >= 0.0)) fail("max_drift_per_m", "must be >= 0");
+  if (!(c.max_drift_deg_per_m >= 0.0)) fail("max_drift_deg_per_m", "must be >= 0");
   if (c.max_iterations < 1) fail("max_iterations", "must be >= 1");
   if (!(c.degeneracy_ratio > 0.0 && c.degeneracy_ratio < 1.0)) fail("degeneracy_ratio", "must be in (0, 1)");
   if (!(c.max_correction_m > 0.0)) fail("max_correction_m", "must be > 0");

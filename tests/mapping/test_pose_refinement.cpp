@@ -214,6 +214,14 @@ TEST(PoseRefinement, BadConfigAndPoseAreClearErrors) {
   config = enabled_config();
   config.degeneracy_ratio = 0.0;
   EXPECT_THROW(refine_pose({}, Pose::Identity(), map, kCamera, config), ConfigError);
+  config = enabled_config();
+  config.drift_gain = 1.5;
+  try {
+    refine_pose({}, Pose::Identity(), map, kCamera, config);
+    ADD_FAILURE() << "no ConfigError";
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("refine.drift_gain"), std::string::npos) << e.what();
+  }
   Pose bad = Pose::Identity();
   bad.translation().x() = std::nan("");
   EXPECT_THROW(refine_pose({}, bad, map, kCamera, enabled_config()), InputError);

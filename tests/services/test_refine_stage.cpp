@@ -49,5 +49,45 @@ TEST(RefineStage, WithoutRecordsKeepsOnlyTheLastAndRefinesTheSame) {
   EXPECT_FALSE(last.frames[0].predicted.isApprox(last.frames[0].input, 1e-6));
 }
 
+// Odometry with a persistent bias: every 1 m step is reported 4 cm long. The map (frame 0's
+// street, a facade 20 m ahead) observes the forward direction, so each frame's correction
+// measures the bias; with drift_gain the stage learns it (b_z → −0.04 m/m, the correction that
+// undoes the bias) and its predictions converge to the truth, while without it every prediction
+// stays 4 cm long.
+TEST(RefineStage, DriftEstimateLearnsAPersistentOdometryBias) {
+  MapConfig map_config;
+  map_config.max_range_m = 40.0;
+  map::GlobalMap map(map_config);
+  map.integrate(0, Pose::Identity(), test::street_cells(0.0f, false));
+  RefineConfig config;
+  config.enabled = true;  // no odometry prior: the map alone corrects each frame
+  RefineConfig learning = config;
+  learning.drift_gain = 0.3;
+  RefineStage plain(config), adaptive(learning);
+  const StereoCamera camera;
+  constexpr int kFrames = 9;  // beyond, too few cells overlap frame 0's map to observe all six directions
+  for (int frame = 0; frame <= kFrames; ++frame) {
+    const double z = 0.5 * frame;  // 0.5 m per frame: the facade stays within 20 m
+    const Pose truth = translation(0.0, 0.0, z);
+    const Pose odometry = translation(0.0, 0.0, 1.04 * z);
+    const auto cells = map::to_world(test::street_cells(static_cast<float>(z), false), truth.inverse());
+    plain.refine(frame, cells, odometry, map, camera);
+    adaptive.refine(frame, cells, odometry, map, camera);
+  }
+  const RefineSummary a = plain.summary({}, std::nullopt), b = adaptive.summary({}, std::nullopt);
+  const auto prediction_error = [](const FrameRefinement& f) {
+    return std::abs(f.predicted.translation().z() - 0.5 * static_cast<double>(f.frame_id));
+  };
+  // Without the estimate, every prediction is the bias (2 cm) off; with it, the last one is far closer.
+  EXPECT_NEAR(prediction_error(a.frames.back()), 0.02, 0.005);
+  EXPECT_LT(prediction_error(b.frames.back()), 0.005);
+  EXPECT_NEAR(b.frames.back().drift[5], -0.04, 0.01);
+  EXPECT_LT(b.frames.back().drift.head<3>().norm(), 1e-3);
+  EXPECT_TRUE(a.frames.back().drift.isZero());
+  // And the refined poses themselves stay on the truth in both.
+  for (const auto* s : {&a, &b})
+    EXPECT_LT(std::abs(s->frames.back().refined.translation().z() - 0.5 * kFrames), 0.01);
+}
+
 }  // namespace
 }  // namespace planecell::services
