@@ -41,6 +41,10 @@ struct FrameRefinement {
 /// Input vs refined trajectory against ground truth (frames processed in this run).
 struct TrajectoryComparison {
   eval::AteResult input_ate, refined_ate;
+  /// The same without a best-fit alignment: each trajectory is anchored at its first pose
+  /// (A = G_first · P_first⁻¹, as odometry benchmarks do), so a steady climb or a scale error,
+  /// which the rigid alignment partly rotates away, counts in full.
+  eval::AteResult input_ate_anchored, refined_ate_anchored;
   eval::RpeResult input_rpe, refined_rpe;  ///< frame delta 1
 };
 

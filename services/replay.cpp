@@ -76,6 +76,17 @@ std::size_t parse_index(const std::string& text, const std::string& whole) {
   return static_cast<std::size_t>(value);
 }
 
+/// The frame's ground-truth disparity (replay --gt-disparity). Throws InputError when the frame
+/// has none.
+cv::Mat gt_disparity_of(const io::KittiOdometrySequence& sequence, const FrameWork& work) {
+  cv::Mat disparity = io::load_disparity_ground_truth(sequence, static_cast<std::size_t>(work.frame_id),
+                                                      work.frame.left.cols, work.frame.left.rows);
+  if (disparity.empty())
+    throw InputError("replay: --gt-disparity: frame " + std::to_string(work.frame_id) +
+                     " has no ground-truth disparity");
+  return disparity;
+}
+
 }  // namespace
 
 std::pair<std::size_t, std::size_t> parse_frame_range(const std::string& text) {
@@ -99,6 +110,11 @@ ReplayReport run_replay(const ReplayOptions& options, const AppConfig& config) {
   const std::size_t first = std::min(options.first_frame, sequence.size());
   const std::size_t last = std::min(options.last_frame, sequence.size());
 
+  if (options.gt_disparity && options.threads)
+    throw ConfigError("replay: --gt-disparity runs single-threaded only (drop --threads)");
+  if (options.gt_disparity && !io::has_disparity_ground_truth(sequence))
+    throw InputError("replay: --gt-disparity: sequence '" + options.sequence_dir.string() +
+                     "' has no ground-truth disparity (disp_occ_0/)");
   if (!(options.rate_hz >= 0.0))
     throw ConfigError("replay: rate " + std::to_string(options.rate_hz) + " Hz: must be >= 0");
   ReplayReport report;
@@ -172,7 +188,10 @@ ReplayReport run_replay(const ReplayOptions& options, const AppConfig& config) {
         continue;
       }
       FrameWork work = load_when_due(index);
-      sgm_stage(work, config.sgm);
+      if (options.gt_disparity)
+        work.timed("sgm", [&] { work.disparity = gt_disparity_of(sequence, work); });
+      else
+        sgm_stage(work, config.sgm);
       extract_stage(work, config.extraction);
       if (refinement) refine_stage(work, *refinement, global_map);
       transform_stage(work);

@@ -30,6 +30,10 @@ struct ReplayOptions {
   /// Run the stages as the threaded pipeline (services/pipeline) instead of one after another on
   /// this thread; the map is the same.
   bool threads = false;
+  /// Diagnostic: the sequence's ground-truth disparity (disp_occ_0/) replaces SGM, so the map,
+  /// the merging scores and the pose refinement show what perfect stereo would give. Needs GT
+  /// disparity for every frame (InputError otherwise) and the single-threaded replay (ConfigError).
+  bool gt_disparity = false;
   /// Called with every finished frame (e.g. LCM map updates; work.delta filled when
   /// sinks.want_delta): threaded on the publish thread, single-threaded on the calling thread
   /// after the store.

@@ -23,7 +23,8 @@ void add_replay_command(CLI::App& app, CommandContext& context) {
       "run with the same --map resumes after the last committed frame.");
   struct Args {
     std::string sequence, map, poses, frames, report;
-    bool voxel = false, ray_casting = false, no_progress = false, threads = false, publish = false;
+    bool voxel = false, ray_casting = false, no_progress = false, threads = false, publish = false,
+         gt_disparity = false;
     double rate_hz = 0.0;
     std::size_t rss_every = 10;
     std::string lcm_url;
@@ -41,6 +42,9 @@ void add_replay_command(CLI::App& app, CommandContext& context) {
   command->add_flag("--ray-casting", args->ray_casting,
                     "Voxel baseline with free-space ray casting (insertPointCloud; slow)");
   command->add_flag("--no-progress", args->no_progress, "No progress bar");
+  command->add_flag("--gt-disparity", args->gt_disparity,
+                    "Diagnostic: use the sequence's ground-truth disparity (disp_occ_0/, as `synth` "
+                    "writes) instead of SGM, to tell stereo errors from mapping errors (single-threaded)");
   command->add_flag("--threads", args->threads,
                     "Run the stages as the threaded pipeline (one thread per stage, bounded queues; "
                     "section 'pipeline' of the config); builds the same map");
@@ -59,6 +63,7 @@ void add_replay_command(CLI::App& app, CommandContext& context) {
       "  planecell replay dataset/sequences/00 --frames 0:50 --voxel\n"
       "  planecell replay /tmp/street --threads --no-progress   # pipelined: frames/s, end-to-end latency\n"
       "  planecell replay /tmp/street --threads --rate 10        # latency at camera rate\n"
+      "  planecell replay /tmp/street --gt-disparity             # the map from perfect stereo\n"
       "Report: frames, cells, surfaces, map bytes (RAM), store bytes, bytes per frame, voxel\n"
       "bytes/leaves (with --voxel), per-stage latency p50/p95/p99/max (ms), per-stage CPU ms and\n"
       "page faults (stage_cost), RSS over frames (rss_mb) and peak RSS.");
@@ -75,6 +80,7 @@ void add_replay_command(CLI::App& app, CommandContext& context) {
     options.voxel = args->voxel || args->ray_casting;
     options.progress = !args->no_progress;
     options.threads = args->threads;
+    options.gt_disparity = args->gt_disparity;
     options.rate_hz = args->rate_hz;
     options.memory_sample_every = args->rss_every;
     std::unique_ptr<lcm::LCM> lcm;

@@ -2,8 +2,12 @@
 /// store, resuming, and frame-range parsing.
 #include <gtest/gtest.h>
 
+#include <opencv2/core.hpp>
+
 #include "core/error.hpp"
+#include "io/kitti_odometry.hpp"
 #include "io/map_store.hpp"
+#include "io/sequence_ground_truth.hpp"
 #include "services/replay.hpp"
 #include "support/small_street.hpp"
 #include "support/test_data.hpp"
@@ -100,6 +104,43 @@ TEST_F(ReplayTest, SequenceWithoutPosesIsRejectedWithAClearError) {
     FAIL() << "expected InputError";
   } catch (const InputError& e) {
     EXPECT_NE(std::string(e.what()).find("no poses"), std::string::npos) << e.what();
+  }
+}
+
+TEST_F(ReplayTest, GtDisparityReplacesSgmWithTheSequencesGroundTruth) {
+  ReplayOptions options;
+  options.sequence_dir = scratch_ / "seq";
+  options.progress = false;
+  options.gt_disparity = true;
+  const io::KittiOdometrySequence sequence = io::open_kitti_odometry(options.sequence_dir);
+  std::size_t frames_seen = 0;
+  options.observe = [&](const FrameWork& work) {
+    const cv::Mat gt = io::load_disparity_ground_truth(sequence, work.frame_id, work.disparity.cols,
+                                                       work.disparity.rows);
+    ASSERT_FALSE(gt.empty());
+    // The same pixels, NaN where the ground truth has none: the map was built from it.
+    cv::Mat differs;
+    cv::compare(work.disparity, gt, differs, cv::CMP_NE);  // NaN != NaN: count NaNs apart
+    const int nan_pixels = cv::countNonZero(gt != gt);
+    EXPECT_EQ(cv::countNonZero(differs), nan_pixels) << "frame " << work.frame_id;
+    EXPECT_EQ(cv::countNonZero(work.disparity != work.disparity), nan_pixels) << "frame " << work.frame_id;
+    ++frames_seen;
+  };
+  const ReplayReport report = run_replay(options, config_);
+  EXPECT_EQ(report.frames, 4u);
+  EXPECT_EQ(frames_seen, 4u);
+  EXPECT_GT(report.cells_in_map, 0u);
+
+  options.observe = nullptr;
+  options.threads = true;
+  EXPECT_THROW(run_replay(options, config_), ConfigError);
+  options.threads = false;
+  std::filesystem::remove_all(scratch_ / "seq" / "disp_occ_0");
+  try {
+    run_replay(options, config_);
+    FAIL() << "expected InputError";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("disp_occ_0"), std::string::npos) << e.what();
   }
 }
 
