@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "core/planecell.hpp"
+#include "io/synthetic/synthetic_world.hpp"
 #include "mapping/map/global_map.hpp"
 
 namespace planecell::services::eval {
@@ -27,7 +28,22 @@ struct MergeMetrics {
   double area_one_label = 0.0;
   /// Share of cells whose final label's dominant GT surface (by area) is not their own.
   double cross_merged_cells = 0.0;
+  /// The same over GT *planes* (MergeEvaluator::set_gt_planes): a cell counts only when its
+  /// label's dominant GT surface lies on another plane than its own. The renderer gives one world
+  /// plane several ids (the road of each leg, flush facades of neighbouring buildings), and
+  /// merging those is what the CRF is for. Equals cross_merged_cells without planes.
+  double cross_merged_cells_between_planes = 0.0;
 };
+
+/// GT plane groups of a synthetic scene: surfaces a and b share a group when their planes agree
+/// (normals within max_angle_deg, |e_a − e_b| ≤ max_offset_m with n_b oriented like n_a) and their
+/// polygons touch (closest corner-to-edge distance ≤ touch_m, or a corner of one inside the
+/// other); groups are the transitive closure (union-find). Returns id → group (the smallest id
+/// in the group).
+std::unordered_map<std::uint16_t, std::uint16_t> coplanar_groups(std::span<const io::SyntheticSurface> surfaces,
+                                                                 double max_angle_deg = 1.0,
+                                                                 double max_offset_m = 0.02,
+                                                                 double touch_m = 0.05);
 
 /// Accumulates, frame by frame, (GT surface, area, map surface) for every integrated cell, and
 /// follows later surface merges to each cell's final label.
@@ -43,6 +59,9 @@ class MergeEvaluator {
 
   MergeMetrics finish() const;
 
+  /// GT surface id → GT plane group (coplanar_groups); ids missing from it are their own group.
+  void set_gt_planes(std::unordered_map<std::uint16_t, std::uint16_t> groups) { groups_ = std::move(groups); }
+
  private:
   struct Sample {
     std::uint16_t gt = 0;
@@ -55,6 +74,7 @@ class MergeEvaluator {
   std::size_t mixed_ = 0;
   std::unordered_map<std::uint32_t, std::uint32_t> merged_into_;  ///< absorbed → into
   std::unordered_set<std::uint32_t> pruned_;  ///< surfaces pruned as unconfirmed: not in the map
+  std::unordered_map<std::uint16_t, std::uint16_t> groups_;  ///< GT id → GT plane group
 };
 
 }  // namespace planecell::services::eval

@@ -30,6 +30,51 @@ void halves(cv::Mat& labels, cv::Mat& gt, int left, int right, std::uint16_t gt_
     }
 }
 
+/// A 1 m × 1 m rectangle of the plane z = z0 (normal +z), x ∈ [x0, x0 + 1], y ∈ [0, 1].
+io::SyntheticSurface tile_at(std::uint16_t id, double x0, double z0) {
+  return io::make_rectangle(id, io::SurfaceKind::kBox, {x0, 0.0, z0}, Eigen::Vector3d::UnitX(),
+                            Eigen::Vector3d::UnitY(), 1.0, 1.0, {});
+}
+
+TEST(MergeMetrics, CoplanarTouchingGtSurfacesFormOnePlaneGroup) {
+  // 1 and 2 share an edge on z = 0; 3 is on z = 0 too but 4 m away; 4 lies 10 cm above 1;
+  // 5 touches 2 on z = 0.01 (within 2 cm: the same plane), so it joins 1 and 2 transitively.
+  const std::vector<io::SyntheticSurface> surfaces = {tile_at(1, 0.0, 0.0), tile_at(2, 1.0, 0.0),
+                                                      tile_at(3, 6.0, 0.0), tile_at(4, 0.0, 0.1),
+                                                      tile_at(5, 2.0, 0.01)};
+  const auto groups = coplanar_groups(surfaces);
+  EXPECT_EQ(groups.at(1), 1);
+  EXPECT_EQ(groups.at(2), 1);
+  EXPECT_EQ(groups.at(5), 1);
+  EXPECT_EQ(groups.at(3), 3);
+  EXPECT_EQ(groups.at(4), 4);
+  // A normal 2° off is another plane.
+  io::SyntheticSurface tilted = io::make_rectangle(
+      6, io::SurfaceKind::kBox, {1.0, 0.0, 0.0}, Eigen::Vector3d(std::cos(0.035), 0.0, std::sin(0.035)),
+      Eigen::Vector3d::UnitY(), 1.0, 1.0, {});
+  const std::vector<io::SyntheticSurface> two = {tile_at(1, 0.0, 0.0), tilted};
+  EXPECT_NE(coplanar_groups(two).at(6), coplanar_groups(two).at(1));
+}
+
+TEST(MergeMetrics, MergingCoplanarGtSurfacesIsNotCrossMergingBetweenPlanes) {
+  MergeEvaluator eval;
+  eval.set_gt_planes({{1, 1}, {2, 1}});  // GT 1 and 2: one plane; GT 3: its own
+  cv::Mat labels, gt;
+  halves(labels, gt, 0, 1, 1, 2);
+  map::MergeReport report;
+  report.cell_surfaces = {10, 10};
+  eval.add_frame(labels, gt, std::vector<Planecell>{square(0, std::sqrt(2.0f)), square(1, 1.0f)}, report);
+  halves(labels, gt, 2, 3, 1, 3);
+  report.cell_surfaces = {10, 10};  // a cell of GT 3 (another plane) joins the same label
+  eval.add_frame(labels, gt, std::vector<Planecell>{square(2, std::sqrt(2.0f)), square(3, 1.0f)}, report);
+  const MergeMetrics m = eval.finish();
+  ASSERT_EQ(m.cells, 4u);
+  // Label 10: GT 1 4 m², GT 2 1 m², GT 3 1 m² → GT 1 dominates. Per surface, the cells of GT 2 and
+  // GT 3 are cross-merged (2 of 4); per plane only the cell of GT 3 (1 of 4).
+  EXPECT_NEAR(m.cross_merged_cells, 0.5, 1e-9);
+  EXPECT_NEAR(m.cross_merged_cells_between_planes, 0.25, 1e-9);
+}
+
 TEST(MergeMetrics, CellMergedIntoAnotherGtSurfacesLabelIsCrossMerged) {
   MergeEvaluator eval;
   cv::Mat labels, gt;
