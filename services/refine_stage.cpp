@@ -69,10 +69,11 @@ Pose RefineStage::refine(std::uint64_t frame_id, std::span<const Planecell> cell
     const Eigen::Vector3d tau = to_camera * result.correction.tail<3>().eval();
     drift_.head<3>() += (config_.drift_gain / step_m) * omega;
     drift_.tail<3>() += (config_.drift_gain / step_m) * tau;
-    const double max_rotation = config_.max_drift_deg_per_m * std::numbers::pi / 180.0;
-    if (drift_.head<3>().norm() > max_rotation) drift_.head<3>() *= max_rotation / drift_.head<3>().norm();
-    if (drift_.tail<3>().norm() > config_.max_drift_per_m)
-      drift_.tail<3>() *= config_.max_drift_per_m / drift_.tail<3>().norm();
+    const auto clamp_norm = [](auto&& v, double max_norm) {
+      if (v.norm() > max_norm) v *= max_norm / v.norm();
+    };
+    clamp_norm(drift_.head<3>(), config_.max_drift_deg_per_m * std::numbers::pi / 180.0);
+    clamp_norm(drift_.tail<3>(), config_.max_drift_per_m);
   }
   record.drift = drift_;
   if (!keep_records_) frames_.clear();

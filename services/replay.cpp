@@ -202,7 +202,7 @@ ReplayReport run_replay(const ReplayOptions& options, const AppConfig& config) {
       }
       FrameWork work = load_when_due(index);
       if (options.gt_disparity)
-        work.timed("sgm", [&] { work.disparity = gt_disparity_of(sequence, work); });
+        work.timed("gt_disparity", [&] { work.disparity = gt_disparity_of(sequence, work); });
       else
         sgm_stage(work, config.sgm);
       extract_stage(work, config.extraction);

@@ -6,6 +6,7 @@
 #include <numbers>
 
 #include "core/error.hpp"
+#include "mapping/map/crf_merger.hpp"
 #include "mapping/map/geometry.hpp"
 
 namespace planecell::services::eval {
@@ -115,59 +116,17 @@ MergeMetrics MergeEvaluator::finish() const {
   return m;
 }
 
-namespace {
-
-/// Distance from p to the segment [a, b].
-double point_segment_m(const Eigen::Vector3d& p, const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
-  const Eigen::Vector3d ab = b - a;
-  const double len_sq = ab.squaredNorm();
-  const double t = len_sq > 0.0 ? std::clamp((p - a).dot(ab) / len_sq, 0.0, 1.0) : 0.0;
-  return (a + t * ab - p).norm();
-}
-
-/// p (on the polygon's plane) inside the convex polygon `ring` with normal n: the same side of
-/// every edge.
-bool inside_convex(const Eigen::Vector3d& p, const std::vector<Eigen::Vector3d>& ring, const Eigen::Vector3d& n) {
-  int sign = 0;
-  for (std::size_t i = 0; i < ring.size(); ++i) {
-    const double s = n.dot((ring[(i + 1) % ring.size()] - ring[i]).cross(p - ring[i]));
-    const int here = s > 0.0 ? 1 : (s < 0.0 ? -1 : 0);
-    if (here == 0) continue;
-    if (sign != 0 && here != sign) return false;
-    sign = here;
-  }
-  return true;
-}
-
-bool touching(const std::vector<Eigen::Vector3d>& a, const std::vector<Eigen::Vector3d>& b,
-              const Eigen::Vector3d& n, double touch_m) {
-  for (int pass = 0; pass < 2; ++pass) {
-    const auto& from = pass == 0 ? a : b;
-    const auto& to = pass == 0 ? b : a;
-    for (const auto& p : from) {
-      if (inside_convex(p, to, n)) return true;
-      for (std::size_t i = 0; i < to.size(); ++i)
-        if (point_segment_m(p, to[i], to[(i + 1) % to.size()]) <= touch_m) return true;
-    }
-  }
-  return false;
-}
-
-}  // namespace
-
 std::unordered_map<std::uint16_t, std::uint16_t> coplanar_groups(std::span<const io::SyntheticSurface> surfaces,
                                                                  double max_angle_deg, double max_offset_m,
                                                                  double touch_m) {
   const double cos_max = std::cos(max_angle_deg * std::numbers::pi / 180.0);
-  std::vector<std::size_t> parent(surfaces.size());
-  for (std::size_t i = 0; i < parent.size(); ++i) parent[i] = i;
-  const auto root = [&parent](std::size_t i) {
-    while (parent[i] != i) i = parent[i] = parent[parent[i]];
-    return i;
-  };
-  std::vector<std::vector<Eigen::Vector3d>> corners;
+  std::vector<std::vector<Eigen::Vector3f>> corners;
   corners.reserve(surfaces.size());
-  for (const auto& s : surfaces) corners.push_back(s.corners_world());
+  for (const auto& s : surfaces) {
+    corners.emplace_back();
+    for (const Eigen::Vector3d& c : s.corners_world()) corners.back().push_back(c.cast<float>());
+  }
+  map::UnionFind groups;  // the smaller id becomes the root
   for (std::size_t i = 0; i < surfaces.size(); ++i)
     for (std::size_t j = i + 1; j < surfaces.size(); ++j) {
       const Plane3& a = surfaces[i].plane;
@@ -175,16 +134,11 @@ std::unordered_map<std::uint16_t, std::uint16_t> coplanar_groups(std::span<const
       const double dot = a.normal.dot(b.normal);
       const double offset_b = dot < 0.0 ? -b.offset : b.offset;
       if (std::abs(dot) < cos_max || std::abs(a.offset - offset_b) > max_offset_m) continue;
-      if (root(i) == root(j) || !touching(corners[i], corners[j], a.normal, touch_m)) continue;
-      parent[root(i)] = root(j);
+      if (groups.find(surfaces[i].id) == groups.find(surfaces[j].id)) continue;
+      if (map::polygons_within_m(a, corners[i], b, corners[j], touch_m)) groups.unite(surfaces[i].id, surfaces[j].id);
     }
-  std::unordered_map<std::size_t, std::uint16_t> smallest;  // root → smallest id
-  for (std::size_t i = 0; i < surfaces.size(); ++i) {
-    auto [it, inserted] = smallest.emplace(root(i), surfaces[i].id);
-    if (!inserted) it->second = std::min(it->second, surfaces[i].id);
-  }
   std::unordered_map<std::uint16_t, std::uint16_t> out;
-  for (std::size_t i = 0; i < surfaces.size(); ++i) out[surfaces[i].id] = smallest.at(root(i));
+  for (const auto& s : surfaces) out[s.id] = static_cast<std::uint16_t>(groups.find(s.id));
   return out;
 }
 

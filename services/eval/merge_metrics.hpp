@@ -37,9 +37,9 @@ struct MergeMetrics {
 
 /// GT plane groups of a synthetic scene: surfaces a and b share a group when their planes agree
 /// (normals within max_angle_deg, |e_a − e_b| ≤ max_offset_m with n_b oriented like n_a) and their
-/// polygons touch (closest corner-to-edge distance ≤ touch_m, or a corner of one inside the
-/// other); groups are the transitive closure (union-find). Returns id → group (the smallest id
-/// in the group).
+/// polygons touch (map::polygons_within_m(touch_m): a corner of one within touch_m of the
+/// other); groups are the transitive closure (map::UnionFind). Returns id → group (the smallest
+/// id in the group).
 std::unordered_map<std::uint16_t, std::uint16_t> coplanar_groups(std::span<const io::SyntheticSurface> surfaces,
                                                                  double max_angle_deg = 1.0,
                                                                  double max_offset_m = 0.02,
