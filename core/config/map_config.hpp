@@ -66,6 +66,11 @@ struct MapConfig {
   /// across a depth edge, a mismatched patch) then do not pile up, and a revisit adds only what
   /// is new. 0 = keep every surface.
   int unconfirmed_max_age_frames = 3;
+  /// A surface still holding a single observation this many frames after it was stored is pruned
+  /// even when no new cell came near it: a real surface in view is seen again within a few frames
+  /// (at 1 m per frame a place stays within max_range_m for ~15 frames), a cell floating where the
+  /// following frames see nothing is a mismatch. 0 = no time-out.
+  int unconfirmed_timeout_frames = 10;
   double footprint_resolution_m = 0.10;  ///< edge of a surface footprint bit (m; see map/footprint)
   double index_cell_m = 2.0;             ///< edge of the hashed 3D grid of cell bounds (m)
   // --- queries --------------------------------------------------------------------------------
@@ -94,6 +99,7 @@ void visit_fields(MapConfig& c, Visitor&& visit) {
   visit("redundant_max_distance_m", c.redundant_max_distance_m);
   visit("redundant_precision_ratio", c.redundant_precision_ratio);
   visit("unconfirmed_max_age_frames", c.unconfirmed_max_age_frames);
+  visit("unconfirmed_timeout_frames", c.unconfirmed_timeout_frames);
   visit("footprint_resolution_m", c.footprint_resolution_m);
   visit("index_cell_m", c.index_cell_m);
   visit("up_x", c.up_x);

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <map>
 #include <set>
 #include <string>
@@ -329,6 +330,7 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
   /// Stored cell id → (that cell, the new stored cells superseding it); by id, so replacement is
   /// deterministic.
   std::map<std::uint32_t, std::pair<const MapCell*, std::vector<const Planecell*>>> superseding;
+  std::vector<std::uint32_t> created_surfaces;
   for (std::size_t k = 0; k < fresh.size(); ++k) {
     const Planecell& cell = *fresh[k];
     const std::uint32_t root = union_find.find(units[k].label);
@@ -357,6 +359,7 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
     auto [it, created] = surfaces_.try_emplace(root);
     Surface& surface = it->second;
     if (created) {
+      created_surfaces.push_back(root);
       surface.id = root;
       // The first cell lands mid-tile (its centroid half a tile from the basis origin along u and
       // v), not on the corner of four footprint tiles.
@@ -416,19 +419,26 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
     ++report.replaced_cells;
   }
   // Unconfirmed surfaces this frame reached but did not confirm leave the map with their cells.
-  for (std::uint32_t id : unconfirmed) {
+  auto still_unconfirmed = [&](std::uint32_t id) {
     const auto it = surfaces_.find(id);
-    if (it == surfaces_.end() || it->second.observations != 1 || touched.contains(id)) continue;
-    for (std::uint32_t cell_id : it->second.cells) {
-      const auto cell_it = cells_.find(cell_id);
-      if (cell_it == cells_.end()) continue;
-      index_.remove(cell_id, bounds_of(cell_it->second.vertices_m));
-      cells_.erase(cell_it);
-      report.removed_cells.push_back(cell_id);
+    return it != surfaces_.end() && it->second.observations == 1 && !touched.contains(id);
+  };
+  for (std::uint32_t id : unconfirmed)
+    if (still_unconfirmed(id)) prune_surface(id, report);
+  // Single observations stored unconfirmed_timeout_frames ago or earlier: confirmed since, gone,
+  // or pruned now.
+  if (config_.unconfirmed_timeout_frames > 0) {
+    const auto timeout = static_cast<std::uint64_t>(config_.unconfirmed_timeout_frames);
+    while (!single_observation_since_.empty() &&
+           single_observation_since_.begin()->first + timeout <= frame_id) {
+      const std::uint32_t id = single_observation_since_.begin()->second;
+      single_observation_since_.erase(single_observation_since_.begin());
+      if (still_unconfirmed(id)) prune_surface(id, report);
     }
-    surfaces_.erase(it);
-    report.removed_surfaces.push_back(id);
-    report.pruned_surfaces.push_back(id);
+  }
+  for (std::uint32_t id : created_surfaces) {
+    const auto it = surfaces_.find(id);
+    if (it != surfaces_.end() && it->second.observations == 1) single_observation_since_.emplace(frame_id, id);
   }
   if (!report.removed_cells.empty())
     std::erase_if(report.relabelled_cells, [&](std::uint32_t id) { return !cells_.contains(id); });
@@ -466,6 +476,21 @@ std::size_t GlobalMap::map_bytes() const {
   return total;
 }
 
+void GlobalMap::prune_surface(std::uint32_t id, MergeReport& report) {
+  const auto it = surfaces_.find(id);
+  if (it == surfaces_.end()) return;
+  for (std::uint32_t cell_id : it->second.cells) {
+    const auto cell_it = cells_.find(cell_id);
+    if (cell_it == cells_.end()) continue;
+    index_.remove(cell_id, bounds_of(cell_it->second.vertices_m));
+    cells_.erase(cell_it);
+    report.removed_cells.push_back(cell_id);
+  }
+  surfaces_.erase(it);
+  report.removed_surfaces.push_back(id);
+  report.pruned_surfaces.push_back(id);
+}
+
 GlobalMap GlobalMap::restore(const MapConfig& config, std::vector<MapCell> cells,
                              std::vector<Surface> surfaces, std::uint32_t next_cell_id,
                              std::uint32_t next_surface_id) {
@@ -487,6 +512,14 @@ GlobalMap GlobalMap::restore(const MapConfig& config, std::vector<MapCell> cells
   }
   map.next_cell_id_ = next_cell_id;
   map.next_surface_id_ = next_surface_id;
+  // A single observation was stored with the surface's (only) cell.
+  for (const auto& [id, surface] : map.surfaces_) {
+    if (surface.observations != 1 || surface.cells.empty()) continue;
+    std::uint64_t stored = std::numeric_limits<std::uint64_t>::max();
+    for (std::uint32_t cell_id : surface.cells)
+      if (const MapCell* c = map.cell(cell_id)) stored = std::min(stored, c->frame_id);
+    if (stored != std::numeric_limits<std::uint64_t>::max()) map.single_observation_since_.emplace(stored, id);
+  }
   return map;
 }
 

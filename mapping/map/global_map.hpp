@@ -4,6 +4,7 @@
 /// planner queries and memory accounting.
 #include <array>
 #include <cstdint>
+#include <map>
 #include <opencv2/core/mat.hpp>
 #include <optional>
 #include <span>
@@ -114,7 +115,9 @@ class GlobalMap {
   /// own area is not stored. A stored cell keeps its map fields only (MapCell); its colour
   /// histogram is folded into its surface's. A surface left with a single observation when new
   /// cells come near it again MapConfig::unconfirmed_max_age_frames or more frames after it was
-  /// stored is pruned (MergeReport::pruned_surfaces). Throws InputError on a bad pose.
+  /// stored is pruned (MergeReport::pruned_surfaces), and so is one still holding a single
+  /// observation MapConfig::unconfirmed_timeout_frames after it was stored. Throws InputError on a
+  /// bad pose.
   MergeReport integrate(std::uint64_t frame_id, const Pose& T_world_cam,
                         std::span<const Planecell> cells_world,
                         std::span<const LabelEdge> image_adjacency = {});
@@ -177,6 +180,9 @@ class GlobalMap {
   std::vector<std::uint32_t> query_cells(const Aabb& box) const {
     return index_.query(box, [this](std::uint32_t id) { return bounds_of(cells_.at(id).vertices_m); });
   }
+  /// Removes surface `id` and its cells (index entries included), recording them in `report` as
+  /// removed and pruned.
+  void prune_surface(std::uint32_t id, MergeReport& report);
   /// Folds `absorbed` into `into` (cells relabelled, footprint re-tiled in into's basis).
   void absorb_surface(Surface& into, Surface& absorbed, MergeReport& report);
 
@@ -186,6 +192,9 @@ class GlobalMap {
   SpatialIndex index_;
   std::unordered_map<std::uint32_t, MapCell> cells_;
   std::unordered_map<std::uint32_t, Surface> surfaces_;
+  /// (frame stored, surface id) of the surfaces stored with a single observation, oldest first:
+  /// the candidates of MapConfig::unconfirmed_timeout_frames (derived state: restore rebuilds it).
+  std::multimap<std::uint64_t, std::uint32_t> single_observation_since_;
   std::uint32_t next_cell_id_ = 0;
   std::uint32_t next_surface_id_ = 0;
 };

@@ -287,10 +287,67 @@ TEST(Fusion, ASingleViewSurfaceNotSeenAgainIsPrunedWhenItsPlaceIsRevisited) {
   EXPECT_EQ(map.cells().size(), 9u);
 }
 
+TEST(Fusion, ASingleViewSurfaceNothingComesNearIsPrunedAfterTheTimeout) {
+  // A panel 40 m off the road: no later cell comes near it, so only the time-out removes it.
+  const PruneScene scene;
+  MapConfig config;
+  config.max_range_m = 100.0;
+  config.max_depth_sigma_m = 0.0;
+  ASSERT_EQ(config.unconfirmed_timeout_frames, 10);
+  const Planecell far_panel = rect_cell(30, {40.0f, 0.5f, 5.0f}, kX, kY, 9);
+  GlobalMap map(config);
+  std::vector<Planecell> first = scene.road();
+  first.push_back(far_panel);
+  first.push_back(scene.along());
+  const auto r0 = map.integrate(0, Pose::Identity(), first);
+  ASSERT_EQ(r0.added_cells.size(), 10u);
+  const std::uint32_t far_surface = r0.cell_surfaces[8];
+  const std::uint32_t far_cell = r0.added_cells[8];
+  const std::uint32_t along_surface = r0.cell_surfaces[9];
+  ASSERT_EQ(map.surface(far_surface)->observations, 1u);
+  // The panel along the road is seen again in frame 1: confirmed, never timed out.
+  map.integrate(1, Pose::Identity(), std::vector<Planecell>{scene.along()});
+  // A map restored half-way (what the store holds after frame 4) resumes the same clock.
+  GlobalMap resumed;
+  for (std::uint64_t f = 2; f <= 10; ++f) {
+    if (f == 5) {
+      std::vector<MapCell> cells;
+      std::vector<Surface> surfaces;
+      for (const auto& [id, c] : map.cells()) cells.push_back(c);
+      for (const auto& [id, s] : map.surfaces()) surfaces.push_back(s);
+      resumed = GlobalMap::restore(config, cells, surfaces, map.next_cell_id(), map.next_surface_id());
+    }
+    if (f >= 5) {
+      const auto r = resumed.integrate(f, Pose::Identity(), scene.road());
+      if (f < 10) {
+        EXPECT_TRUE(r.pruned_surfaces.empty()) << "frame " << f;
+      } else {
+        EXPECT_EQ(r.pruned_surfaces, (std::vector<std::uint32_t>{far_surface}));
+        EXPECT_EQ(r.removed_cells, (std::vector<std::uint32_t>{far_cell}));
+      }
+    }
+    const auto r = map.integrate(f, Pose::Identity(), scene.road());
+    if (f < 10) {
+      // Younger than the time-out and nothing near it: kept.
+      EXPECT_TRUE(r.pruned_surfaces.empty()) << "frame " << f;
+      EXPECT_NE(map.surface(far_surface), nullptr) << "frame " << f;
+    } else {
+      // Stored in frame 0, still one observation in frame 10: gone with its cell.
+      EXPECT_EQ(r.pruned_surfaces, (std::vector<std::uint32_t>{far_surface}));
+      EXPECT_EQ(r.removed_cells, (std::vector<std::uint32_t>{far_cell}));
+    }
+  }
+  EXPECT_EQ(map.cell(far_cell), nullptr);
+  ASSERT_NE(map.surface(along_surface), nullptr);
+  EXPECT_EQ(map.surface(along_surface)->observations, 2u);
+  EXPECT_TRUE(map.same_content(resumed));
+}
+
 TEST(Fusion, UnconfirmedSurfacesStayWhenPruningIsOff) {
   const PruneScene scene;
   MapConfig config;
   config.unconfirmed_max_age_frames = 0;
+  config.unconfirmed_timeout_frames = 0;
   GlobalMap map(config);
   std::vector<Planecell> first = scene.road();
   first.push_back(scene.across());
