@@ -350,6 +350,14 @@ MapStore::MapStore(const std::filesystem::path& path) : path_(path) {
 
 MapStore::~MapStore() { sqlite3_close(db_); }
 
+void MapStore::compact() {
+  try {
+    exec("VACUUM");
+  } catch (const StorageError& e) {
+    throw StorageError(std::string(e.what()) + " (compaction failed; the store is unchanged)");
+  }
+}
+
 void MapStore::commit_frame(std::uint64_t frame_id, const Pose& T_world_cam,
                             const map::MergeReport& report, const map::GlobalMap& map,
                             const std::optional<Pose>& input_pose) {

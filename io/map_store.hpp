@@ -50,6 +50,12 @@ class MapStore {
   void commit_frame(std::uint64_t frame_id, const Pose& T_world_cam, const map::MergeReport& report,
                     const map::GlobalMap& map, const std::optional<Pose>& input_pose = std::nullopt);
 
+  /// Rewrites the database without free pages and with full B-tree pages (SQLite VACUUM), for the
+  /// end of a session: frames committed one by one leave pages of updated surfaces half-empty.
+  /// The map read back is unchanged. Needs free disk room for a copy of the store; on failure
+  /// (a full disk) the store is left as it was and StorageError names the path.
+  void compact();
+
   /// Reads the whole map back. Throws StorageError on corrupt rows.
   StoredMap load() const;
 

@@ -184,7 +184,7 @@ void add_run_command(CLI::App& app, CommandContext& context) {
     }
     if (signals.requested()) spdlog::info("run: signal {}: draining the pipeline", signals.signal_number());
     map = pipeline.finish();  // intake stopped: drains, every frame is committed as it merges
-    store.reset();            // close: checkpoints the WAL into the database
+    close_store(store);       // compacts, closes: checkpoints the WAL into the database
     const PipelineStats stats = pipeline.stats();
     publish_stats();
     std::cout << "run: " << stats.frames_done << " frames mapped, " << stats.frames_dropped << " dropped, "

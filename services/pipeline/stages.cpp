@@ -1,5 +1,7 @@
 #include "services/pipeline/stages.hpp"
 
+#include <spdlog/spdlog.h>
+
 #include "core/error.hpp"
 #include "io/kitti_odometry.hpp"
 #include "io/map_store.hpp"
@@ -60,6 +62,16 @@ void refine_stage(FrameWork& work, RefineStage& refinement, const map::GlobalMap
 
 void store_stage(FrameWork& work, io::MapStore& store, const map::GlobalMap& map) {
   work.timed("store", [&] { store.commit_frame(work.frame_id, *work.frame.pose, work.merge, map, work.input_pose); });
+}
+
+void close_store(std::unique_ptr<io::MapStore>& store) {
+  if (!store) return;
+  try {
+    store->compact();
+  } catch (const StorageError& e) {
+    spdlog::warn("{}; every frame is committed, the store is only not compacted", e.what());
+  }
+  store.reset();
 }
 
 void voxel_stage(FrameWork& work, voxel::VoxelMap& voxels, const VoxelConfig& config) {

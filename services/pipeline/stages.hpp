@@ -6,6 +6,7 @@
 /// more thread in the pipeline.
 #include <chrono>
 #include <cstdint>
+#include <memory>
 #include <opencv2/core/mat.hpp>
 #include <string>
 #include <utility>
@@ -113,6 +114,11 @@ void merge_stage(FrameWork& work, map::GlobalMap& map, bool want_delta = false, 
 
 /// store: commits the merged frame to the map store (one transaction).
 void store_stage(FrameWork& work, io::MapStore& store, const map::GlobalMap& map);
+
+/// End of a session: compacts the store (io::MapStore::compact; a failure, e.g. a full disk,
+/// is logged as a warning: every frame is already committed) and closes it, which checkpoints
+/// the WAL into the database. Does nothing when `store` is empty.
+void close_store(std::unique_ptr<io::MapStore>& store);
 
 /// voxel: back-projects the disparity into the OctoMap voxel baseline.
 void voxel_stage(FrameWork& work, voxel::VoxelMap& voxels, const VoxelConfig& config);

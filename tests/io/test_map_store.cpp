@@ -258,6 +258,73 @@ TEST(MapStoreTest, TruncatedCopyIsRejected) {
   }
 }
 
+TEST(MapStoreTest, CompactionShrinksTheFileAndKeepsTheMapWritable) {
+  test::ScratchDir dir;
+  const auto path = dir / "map.db";
+  map::GlobalMap map;
+  {
+    MapStore store(path);
+    drive(map, 30, &store, 8);
+  }
+  const auto before = std::filesystem::file_size(path);
+  {
+    MapStore store(path);
+    store.compact();
+  }
+  const auto after = std::filesystem::file_size(path);
+  // Surfaces rewritten frame after frame left free and half-empty pages behind.
+  EXPECT_LT(after, before);
+  MapStore store(path);
+  EXPECT_EQ(store.frame_count(), 30u);
+  EXPECT_TRUE(load_map(store).same_content(map));
+  const auto report = map.integrate(30, frame_pose(30), frame_cells(30, 8));
+  store.commit_frame(30, frame_pose(30), report, map);
+  EXPECT_TRUE(load_map(store).same_content(map));
+}
+
+TEST(MapStoreTest, CompactionWithoutDiskRoomLeavesTheStoreAsItWas) {
+  test::ScratchDir dir;
+  const auto path = dir / "map.db";
+  constexpr int kCommitted = 12;
+  {
+    map::GlobalMap map;
+    MapStore store(path);
+    drive(map, kCommitted, &store, 8);
+  }
+  const pid_t child = fork();
+  ASSERT_GE(child, 0);
+  if (child == 0) {
+    // Child: no room for VACUUM's copy (files capped at 1 KiB). Exit 0 only when compaction
+    // fails with a StorageError naming the store.
+    int code = 1;
+    try {
+      std::signal(SIGXFSZ, SIG_IGN);
+      MapStore store(path);
+      const rlimit limit{1024, 1024};
+      setrlimit(RLIMIT_FSIZE, &limit);
+      try {
+        store.compact();
+        code = 2;
+      } catch (const StorageError& e) {
+        code = std::string(e.what()).find(path.string()) != std::string::npos ? 0 : 3;
+      }
+    } catch (...) {
+      code = 4;
+    }
+    _exit(code);
+  }
+  int status = 0;
+  ASSERT_EQ(waitpid(child, &status, 0), child);
+  ASSERT_TRUE(WIFEXITED(status));
+  ASSERT_EQ(WEXITSTATUS(status), 0) << "child exit codes: 2 = compaction succeeded, 3 = message "
+                                       "without the path, 4 = unexpected error";
+  MapStore store(path);
+  EXPECT_EQ(store.frame_count(), static_cast<std::size_t>(kCommitted));
+  map::GlobalMap expected;
+  drive(expected, kCommitted, nullptr, 8);
+  EXPECT_TRUE(load_map(store).same_content(expected));
+}
+
 TEST(MapStoreTest, FailedWriteRaisesStorageErrorAndKeepsCommittedFrames) {
   test::ScratchDir dir;
   const auto path = dir / "map.db";
