@@ -256,14 +256,20 @@ std::vector<std::pair<std::uint32_t, std::uint32_t>> CrfMerger::merge(
   };
   std::vector<Candidate> candidates;
   std::unordered_set<std::uint32_t> changed;  // labels whose state changed in this round
+  std::unordered_set<std::uint32_t> changed_before;  // ... in the round before
   for (int round = 0; round < 64; ++round) {
     candidates.clear();
+    changed_before.swap(changed);
     changed.clear();
     for (std::size_t e = 0; e < edges.size(); ++e) {
       const auto& edge = edges[e];
       const std::uint32_t la = union_find.find(units[edge.a].label);
       const std::uint32_t lb = union_find.find(units[edge.b].label);
       if (la == lb) continue;
+      // After round 0 only edges touching a label changed in the round before can be in range:
+      // an edge whose two labels kept their state was evaluated on that same state, and was
+      // out of range then (one in range was merged when visited, its labels being unchanged).
+      if (round > 0 && !changed_before.contains(la) && !changed_before.contains(lb)) continue;
       const auto ev = evaluate(units[edge.a], labels.at(la), units[edge.b], labels.at(lb), edge.boundary_m);
       if (ev.in_range) candidates.push_back({ev.gain, e});
     }

@@ -145,7 +145,9 @@ class CrfMerger {
 
   /// Circular greedy merging: each round evaluates every edge whose units carry different labels,
   /// visits them by decreasing gain, and merges (union-find) those still inside the variation
-  /// range under the labels' updated planes; rounds repeat until one merges nothing.
+  /// range under the labels' updated planes; rounds repeat until one merges nothing. Rounds after
+  /// the first evaluate only the edges touching a label that changed in the round before: the
+  /// others were out of range on the same label states (same merges as evaluating them all).
   /// `labels` holds the state of every label used by `units` and is updated in place (a merged
   /// label's state is folded into its root's). Returns the merges as (absorbed, root) pairs in order.
   std::vector<std::pair<std::uint32_t, std::uint32_t>> merge(

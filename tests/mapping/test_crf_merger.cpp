@@ -3,6 +3,8 @@
 #include <gtest/gtest.h>
 
 #include <opencv2/core.hpp>
+#include <random>
+#include <set>
 
 #include "support/planecell_fixtures.hpp"
 #include "core/error.hpp"
@@ -237,6 +239,100 @@ TEST(IncrementalMerge, NoisyCellJoinsWithinItsNoiseButDoesNotBridgeParallelSurfa
   EXPECT_TRUE(r3.surface_merges.empty());
   EXPECT_NE(r3.cell_surfaces[0], road);
   EXPECT_NE(r3.cell_surfaces[0], sidewalk);
+}
+
+
+/// The circular greedy as the paper states it: every round evaluates every edge between two
+/// labels (the oracle for CrfMerger::merge, which skips edges whose labels did not change).
+std::vector<std::pair<std::uint32_t, std::uint32_t>> greedy_evaluating_every_edge(
+    const CrfMerger& merger, std::span<const MergeUnit> units, std::span<const MergeEdge> edges,
+    std::unordered_map<std::uint32_t, LabelState>& labels, UnionFind& union_find) {
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> merges;
+  for (int round = 0; round < 64; ++round) {
+    std::vector<std::pair<double, std::size_t>> candidates;
+    std::set<std::uint32_t> changed;
+    for (std::size_t e = 0; e < edges.size(); ++e) {
+      const std::uint32_t la = union_find.find(units[edges[e].a].label);
+      const std::uint32_t lb = union_find.find(units[edges[e].b].label);
+      if (la == lb) continue;
+      const auto ev = merger.evaluate(units[edges[e].a], labels.at(la), units[edges[e].b], labels.at(lb),
+                                      edges[e].boundary_m);
+      if (ev.in_range) candidates.emplace_back(ev.gain, e);
+    }
+    std::stable_sort(candidates.begin(), candidates.end(),
+                     [](const auto& x, const auto& y) { return x.first > y.first; });
+    bool merged_any = false;
+    for (const auto& [gain, e] : candidates) {
+      const std::uint32_t la = union_find.find(units[edges[e].a].label);
+      const std::uint32_t lb = union_find.find(units[edges[e].b].label);
+      if (la == lb) continue;
+      if ((changed.contains(la) || changed.contains(lb)) &&
+          !merger.evaluate(units[edges[e].a], labels.at(la), units[edges[e].b], labels.at(lb), edges[e].boundary_m)
+               .in_range)
+        continue;
+      const std::uint32_t root = union_find.unite(la, lb);
+      const std::uint32_t absorbed = root == la ? lb : la;
+      changed.insert(root);
+      fold_label(labels.at(root), labels.at(absorbed));
+      labels.erase(absorbed);
+      merges.emplace_back(absorbed, root);
+      merged_any = true;
+    }
+    if (!merged_any) break;
+  }
+  return merges;
+}
+
+TEST(CircularGreedy, MergesExactlyAsEvaluatingEveryEdgeEveryRound) {
+  // A 14 × 14 grid of 0.5 m cells over a road, a sidewalk 12 cm higher and a ramp tilted 6°,
+  // each cell with a random tilt (±2°), height noise, depth σ (2–30 cm) and one of two colours;
+  // edges between 4-neighbours. Several rounds merge on every seed.
+  const CrfMerger merger(MapConfig{});
+  for (unsigned seed = 1; seed <= 6; ++seed) {
+    std::mt19937 rng(seed);
+    std::uniform_real_distribution<float> unit(-1.0f, 1.0f);
+    constexpr int kN = 14;
+    std::vector<Planecell> cells;
+    for (int i = 0; i < kN; ++i)
+      for (int j = 0; j < kN; ++j) {
+        const float x = 0.5f * i, z = 5.0f + 0.5f * j;
+        float y = 1.5f;
+        if (i >= 9) y -= 0.12f;                         // sidewalk
+        if (j >= 9) y -= 0.105f * 0.5f * (j - 9);       // ramp (6°)
+        y += 0.01f * unit(rng);
+        const float slope = j >= 9 ? -0.105f : 0.0f;
+        const Eigen::Vector3f e1(0.5f, 0.5f * 0.035f * unit(rng), 0.0f);
+        const Eigen::Vector3f e2(0.0f, 0.5f * (slope + 0.035f * unit(rng)), 0.5f);
+        Planecell c = rect_cell(static_cast<std::uint32_t>(cells.size()), {x, y, z}, e1, e2,
+                                unit(rng) > 0.6f ? 7 : 3);
+        c.depth_sigma_m = 0.02f + 0.14f * (1.0f + unit(rng));
+        cells.push_back(c);
+      }
+    std::vector<MergeUnit> units;
+    std::unordered_map<std::uint32_t, LabelState> labels;
+    for (std::size_t k = 0; k < cells.size(); ++k) {
+      const double area = polygon_area_m2(cells[k].vertices_m);
+      units.push_back({static_cast<std::uint32_t>(k), &cells[k].plane, cells[k].vertices_m,
+                       &cells[k].histogram, area});
+      labels.emplace(static_cast<std::uint32_t>(k), state_of_cell(cells[k], area, 0.05));
+    }
+    std::vector<MergeEdge> edges;
+    for (int i = 0; i < kN; ++i)
+      for (int j = 0; j < kN; ++j) {
+        const auto k = static_cast<std::uint32_t>(i * kN + j);
+        if (i + 1 < kN) edges.push_back({k, k + kN, 0.5});
+        if (j + 1 < kN) edges.push_back({k, k + 1, 0.5});
+      }
+    auto labels_ref = labels;
+    UnionFind uf, uf_ref;
+    const auto merges = merger.merge(units, edges, labels, uf);
+    const auto expected = greedy_evaluating_every_edge(merger, units, edges, labels_ref, uf_ref);
+    ASSERT_GT(expected.size(), 50u) << "seed " << seed;
+    EXPECT_EQ(merges, expected) << "seed " << seed;
+    std::set<std::uint32_t> roots;
+    for (std::uint32_t k = 0; k < cells.size(); ++k) roots.insert(uf.find(k));
+    EXPECT_GT(roots.size(), 2u) << "seed " << seed << ": the sidewalk step and colours keep labels apart";
+  }
 }
 
 }  // namespace
