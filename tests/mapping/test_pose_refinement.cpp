@@ -115,7 +115,7 @@ TEST(SurfacePlanes, FusedReObservationsCountAsInformationOfTheSurfacePlane) {
     ASSERT_NE(s, nullptr);
     const double factor = static_cast<double>(s->observations) / static_cast<double>(s->cells.size());
     ASSERT_NEAR(factor, 2.0, 1e-12);
-    for (const Eigen::Vector3d x : {plane.mean, Eigen::Vector3d(plane.mean + 3.0 * plane.u + 1.0 * plane.v)}) {
+    for (const Eigen::Vector3d& x : {plane.mean, Eigen::Vector3d(plane.mean + 3.0 * plane.u + 1.0 * plane.v)}) {
       const double single = plane.sigma_at(x), fused = b.planes.at(id).sigma_at(x);
       EXPECT_NEAR(fused * fused, single * single / 2.0, 1e-9 * single * single) << "surface " << id;
     }
