@@ -1,6 +1,7 @@
 #include "mapping/map/crf_merger.hpp"
 
 #include <Eigen/Eigenvalues>
+#include <opencv2/core.hpp>
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -44,22 +45,50 @@ Eigen::Vector3d boundary_point(std::span<const Eigen::Vector3f> a,
 std::vector<LabelEdge> label_adjacency(const cv::Mat& labels) {
   if (labels.empty() || labels.type() != CV_32S)
     throw InputError("label_adjacency: label image must be a non-empty CV_32S matrix");
-  std::unordered_map<std::uint64_t, std::uint32_t> counts;
-  auto count = [&](std::int32_t p, std::int32_t q) {
-    if (p == q || p < 0 || q < 0) return;
-    const auto lo = static_cast<std::uint64_t>(std::min(p, q));
-    const auto hi = static_cast<std::uint64_t>(std::max(p, q));
-    ++counts[(lo << 32) | hi];
-  };
-  for (int r = 0; r < labels.rows; ++r) {
-    const auto* row = labels.ptr<std::int32_t>(r);
-    const auto* below = r + 1 < labels.rows ? labels.ptr<std::int32_t>(r + 1) : nullptr;
-    for (int c = 0; c < labels.cols; ++c) {
-      if (c + 1 < labels.cols) count(row[c], row[c + 1]);
-      if (below) count(row[c], below[c]);
-    }
-  }
+  double max_label = -1.0;
+  cv::minMaxLoc(labels, nullptr, &max_label);
   std::vector<LabelEdge> out;
+  if (max_label < 0.0) return out;
+  /// Visits every 4-connected pixel pair with two different non-negative labels as (lo, hi).
+  auto for_each_pair = [&](auto&& count) {
+    for (int r = 0; r < labels.rows; ++r) {
+      const auto* row = labels.ptr<std::int32_t>(r);
+      const auto* below = r + 1 < labels.rows ? labels.ptr<std::int32_t>(r + 1) : nullptr;
+      for (int c = 0; c < labels.cols; ++c) {
+        const std::int32_t p = row[c];
+        if (p < 0) continue;
+        if (c + 1 < labels.cols && row[c + 1] != p && row[c + 1] >= 0)
+          count(std::min(p, row[c + 1]), std::max(p, row[c + 1]));
+        if (below && below[c] != p && below[c] >= 0) count(std::min(p, below[c]), std::max(p, below[c]));
+      }
+    }
+  };
+  const auto pixels = static_cast<double>(labels.total());
+  if (max_label <= 4.0 * pixels + 1024.0) {
+    // Dense labels (a segmentation's 0..n−1): each label's few neighbours in a short list.
+    std::vector<std::vector<std::pair<std::uint32_t, std::uint32_t>>> neighbours(
+        static_cast<std::size_t>(max_label) + 1);
+    for_each_pair([&](std::int32_t lo, std::int32_t hi) {
+      auto& list = neighbours[static_cast<std::size_t>(lo)];
+      for (auto& [label, n] : list)
+        if (label == static_cast<std::uint32_t>(hi)) {
+          ++n;
+          return;
+        }
+      list.emplace_back(static_cast<std::uint32_t>(hi), 1u);
+    });
+    for (std::size_t lo = 0; lo < neighbours.size(); ++lo) {
+      auto& list = neighbours[lo];
+      std::sort(list.begin(), list.end());
+      for (const auto& [hi, n] : list) out.push_back({static_cast<std::uint32_t>(lo), hi, n});
+    }
+    return out;
+  }
+  // Sparse label values: a hash map of pairs.
+  std::unordered_map<std::uint64_t, std::uint32_t> counts;
+  for_each_pair([&](std::int32_t lo, std::int32_t hi) {
+    ++counts[(static_cast<std::uint64_t>(lo) << 32) | static_cast<std::uint64_t>(hi)];
+  });
   out.reserve(counts.size());
   for (const auto& [key, n] : counts)
     out.push_back({static_cast<std::uint32_t>(key >> 32), static_cast<std::uint32_t>(key), n});

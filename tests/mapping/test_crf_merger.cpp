@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <opencv2/core.hpp>
+#include <map>
 #include <random>
 #include <set>
 
@@ -35,6 +36,41 @@ TEST(LabelAdjacency, IgnoresNegativeLabelsAndRejectsWrongType) {
   EXPECT_TRUE(label_adjacency(labels).empty());
   EXPECT_THROW(label_adjacency(cv::Mat(2, 2, CV_8U, cv::Scalar(0))), InputError);
   EXPECT_THROW(label_adjacency(cv::Mat()), InputError);
+}
+
+TEST(LabelAdjacency, DenseAndSparseLabelValuesCountTheSamePairs) {
+  // Random rectangles painted over a 60 × 80 image (labels 0..39, some -1): the pairs counted by
+  // hand (std::map over every 4-connected pixel pair) equal label_adjacency's, and so do they for
+  // the same image with the labels spread over the int32 range (the hash-map path).
+  std::mt19937 rng(7);
+  cv::Mat labels(60, 80, CV_32S, cv::Scalar(0));
+  for (int k = 0; k < 120; ++k) {
+    const int r = static_cast<int>(rng() % 55), c = static_cast<int>(rng() % 75);
+    const int label = static_cast<int>(rng() % 41) - 1;
+    labels(cv::Rect(c, r, 1 + static_cast<int>(rng() % 20), 1 + static_cast<int>(rng() % 15)) &
+           cv::Rect(0, 0, 80, 60)) = label;
+  }
+  std::map<std::pair<int, int>, std::uint32_t> expected;
+  for (int r = 0; r < labels.rows; ++r)
+    for (int c = 0; c < labels.cols; ++c)
+      for (const auto& [dr, dc] : {std::pair{0, 1}, std::pair{1, 0}}) {
+        if (r + dr >= labels.rows || c + dc >= labels.cols) continue;
+        const int p = labels.at<int>(r, c), q = labels.at<int>(r + dr, c + dc);
+        if (p != q && p >= 0 && q >= 0) ++expected[{std::min(p, q), std::max(p, q)}];
+      }
+  ASSERT_GT(expected.size(), 30u);
+  std::vector<LabelEdge> by_hand;
+  for (const auto& [pair, n] : expected)
+    by_hand.push_back({static_cast<std::uint32_t>(pair.first), static_cast<std::uint32_t>(pair.second), n});
+  EXPECT_EQ(label_adjacency(labels), by_hand);
+  auto spread = [](int label) { return label < 0 ? label : 50'000'000 * label + 123; };
+  cv::Mat sparse = labels.clone();
+  sparse.forEach<int>([&](int& v, const int*) { v = spread(v); });
+  std::vector<LabelEdge> spread_by_hand;
+  for (const auto& e : by_hand)
+    spread_by_hand.push_back({static_cast<std::uint32_t>(spread(static_cast<int>(e.a))),
+                              static_cast<std::uint32_t>(spread(static_cast<int>(e.b))), e.boundary_px});
+  EXPECT_EQ(label_adjacency(sparse), spread_by_hand);
 }
 
 TEST(EnergyTerms, MatchHandComputedValues) {
