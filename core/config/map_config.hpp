@@ -72,7 +72,10 @@ struct MapConfig {
   /// following frames see nothing is a mismatch. 0 = no time-out.
   int unconfirmed_timeout_frames = 10;
   double footprint_resolution_m = 0.10;  ///< edge of a surface footprint bit (m; see map/footprint)
-  double index_cell_m = 2.0;             ///< edge of the hashed 3D grid of cell bounds (m)
+  /// Edge of the hashed 3D grid of cell bounds (m). Each query reaches 1 m around a cell
+  /// (redundant_max_distance_m), so 4 m buckets register a 1 m cell in ~2 buckets instead of ~4
+  /// at the same merge time as 2 m (same map: the exact tests follow the index).
+  double index_cell_m = 4.0;
   // --- queries --------------------------------------------------------------------------------
   double up_x = 0.0;  ///< world "up" (KITTI camera-style world: y down, so up = (0, −1, 0))
   double up_y = -1.0;
