@@ -248,6 +248,11 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
   std::set<std::uint32_t> unconfirmed;
   const auto max_age = static_cast<std::uint64_t>(std::max(0, config_.unconfirmed_max_age_frames));
   const double reach = coverage_rule ? std::max(gap, config_.redundant_max_distance_m) : gap;
+  std::vector<std::uint32_t> nearby;  // index candidates of one new cell (storage reused)
+  // Coverage accepts normals at most 2·redundant_normal_angle_deg apart (nearly_coplanar below):
+  // a stored cell tilted more against the new cell, and on a surface tilted more, is skipped
+  // before the per-pair angle is computed.
+  const double min_coverage_cos = std::cos(2.0 * config_.redundant_normal_angle_deg * M_PI / 180.0);
   for (std::size_t k = 0; k < fresh.size(); ++k) {
     const Planecell& cell = *fresh[k];
     const Aabb box = bounds_of(cell.vertices_m);
@@ -261,7 +266,8 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
         std::max<double>(cell.depth_sigma_m, config_.residual_scale_m);
     // The index's candidates, filtered here so that each stored cell's bounds are computed once.
     const Aabb reach_box = box.inflated(reach);
-    for (std::uint32_t id : index_.candidates(reach_box)) {
+    index_.candidates(reach_box, nearby);
+    for (std::uint32_t id : nearby) {
       const MapCell& old = cells_.at(id);
       const Aabb old_box = bounds_of(old.vertices_m);
       if (!old_box.overlaps(reach_box)) continue;
@@ -280,6 +286,9 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
                          std::sqrt(std::min(fresh_area[k], units[it->second].area_m2))});
       }
       if (!coverage_rule) continue;
+      if (std::abs(cell.plane.normal.dot(old.plane.normal)) < min_coverage_cos &&
+          std::abs(cell.plane.normal.dot(surface.plane.normal)) < min_coverage_cos)
+        continue;
       const double sigma = std::hypot(static_cast<double>(cell.depth_sigma_m),
                                       static_cast<double>(old.depth_sigma_m));
       const bool less_precise =

@@ -66,6 +66,12 @@ void SpatialIndex::remove(std::uint32_t id, const Aabb& box) {
 
 std::vector<std::uint32_t> SpatialIndex::candidates(const Aabb& box) const {
   std::vector<std::uint32_t> out;
+  candidates(box, out);
+  return out;
+}
+
+void SpatialIndex::candidates(const Aabb& box, std::vector<std::uint32_t>& out) const {
+  out.clear();
   for_each_bucket(box, [&](std::uint64_t key) {
     auto it = buckets_.find(key);
     if (it == buckets_.end()) return;
@@ -73,7 +79,6 @@ std::vector<std::uint32_t> SpatialIndex::candidates(const Aabb& box) const {
   });
   std::sort(out.begin(), out.end());
   out.erase(std::unique(out.begin(), out.end()), out.end());
-  return out;
 }
 
 void SpatialIndex::clear() {

@@ -25,6 +25,8 @@ class SpatialIndex {
   /// Ids registered in the buckets `box` touches: sorted, unique, a superset of the ids whose
   /// box overlaps `box`.
   std::vector<std::uint32_t> candidates(const Aabb& box) const;
+  /// The same into `out` (cleared first), reusing its storage across queries.
+  void candidates(const Aabb& box, std::vector<std::uint32_t>& out) const;
   /// Those of candidates(box) whose box, box_of(id) (the box `id` was registered with), overlaps
   /// `box`; sorted, unique.
   template <class BoxOf>
