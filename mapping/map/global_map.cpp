@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <limits>
 #include <map>
 #include <set>
 #include <string>
@@ -521,14 +520,11 @@ GlobalMap GlobalMap::restore(const MapConfig& config, std::vector<MapCell> cells
   }
   map.next_cell_id_ = next_cell_id;
   map.next_surface_id_ = next_surface_id;
-  // A single observation was stored with the surface's (only) cell.
-  for (const auto& [id, surface] : map.surfaces_) {
-    if (surface.observations != 1 || surface.cells.empty()) continue;
-    std::uint64_t stored = std::numeric_limits<std::uint64_t>::max();
-    for (std::uint32_t cell_id : surface.cells)
-      if (const MapCell* c = map.cell(cell_id)) stored = std::min(stored, c->frame_id);
-    if (stored != std::numeric_limits<std::uint64_t>::max()) map.single_observation_since_.emplace(stored, id);
-  }
+  // A surface holding a single observation holds the one cell it was stored with.
+  for (const auto& [id, surface] : map.surfaces_)
+    if (surface.observations == 1 && !surface.cells.empty())
+      if (const MapCell* cell = map.cell(surface.cells.front()))
+        map.single_observation_since_.emplace(cell->frame_id, id);
   return map;
 }
 

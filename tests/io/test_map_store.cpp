@@ -8,6 +8,7 @@
 
 #include <csignal>
 #include <fstream>
+#include <functional>
 #include <sstream>
 
 #include "support/planecell_fixtures.hpp"
@@ -77,6 +78,47 @@ std::string read_bytes(const std::filesystem::path& p) {
   s << in.rdbuf();
   return s.str();
 }
+
+/// Runs `body` in a forked child with SIGXFSZ ignored (a write past RLIMIT_FSIZE then fails
+/// with EFBIG instead of killing the process) and returns the child's exit code: body's result,
+/// or 4 when it throws.
+int exit_code_in_child(const std::function<int()>& body) {
+  const pid_t child = fork();
+  if (child < 0) return -1;
+  if (child == 0) {
+    int code = 4;
+    try {
+      std::signal(SIGXFSZ, SIG_IGN);
+      code = body();
+    } catch (...) {
+    }
+    _exit(code);
+  }
+  int status = 0;
+  if (waitpid(child, &status, 0) != child || !WIFEXITED(status)) return -1;
+  return WEXITSTATUS(status);
+}
+
+/// Caps the size of every file this process writes at `bytes`.
+void cap_file_size(rlim_t bytes) {
+  const rlimit limit{bytes, bytes};
+  setrlimit(RLIMIT_FSIZE, &limit);
+}
+
+/// 0 when `write` raises a StorageError naming `path`, 3 when its message lacks the path, 2 when
+/// it succeeds.
+int storage_error_code(const std::filesystem::path& path, const std::function<void()>& write) {
+  try {
+    write();
+    return 2;
+  } catch (const StorageError& e) {
+    return std::string(e.what()).find(path.string()) != std::string::npos ? 0 : 3;
+  }
+}
+
+constexpr const char* kChildCodes =
+    "child exit codes: 2 = the write succeeded, 3 = message without the path, 4 = unexpected "
+    "error, -1 = the child did not exit";
 
 TEST(MapStoreTest, RoundTripReopenResumesTheMapExactly) {
   test::ScratchDir dir;
@@ -291,33 +333,14 @@ TEST(MapStoreTest, CompactionWithoutDiskRoomLeavesTheStoreAsItWas) {
     MapStore store(path);
     drive(map, kCommitted, &store, 8);
   }
-  const pid_t child = fork();
-  ASSERT_GE(child, 0);
-  if (child == 0) {
-    // Child: no room for VACUUM's copy (files capped at 1 KiB). Exit 0 only when compaction
-    // fails with a StorageError naming the store.
-    int code = 1;
-    try {
-      std::signal(SIGXFSZ, SIG_IGN);
-      MapStore store(path);
-      const rlimit limit{1024, 1024};
-      setrlimit(RLIMIT_FSIZE, &limit);
-      try {
-        store.compact();
-        code = 2;
-      } catch (const StorageError& e) {
-        code = std::string(e.what()).find(path.string()) != std::string::npos ? 0 : 3;
-      }
-    } catch (...) {
-      code = 4;
-    }
-    _exit(code);
-  }
-  int status = 0;
-  ASSERT_EQ(waitpid(child, &status, 0), child);
-  ASSERT_TRUE(WIFEXITED(status));
-  ASSERT_EQ(WEXITSTATUS(status), 0) << "child exit codes: 2 = compaction succeeded, 3 = message "
-                                       "without the path, 4 = unexpected error";
+  // Child: no room for VACUUM's copy (files capped at 1 KiB); compaction must fail with a
+  // StorageError naming the store.
+  const int code = exit_code_in_child([&] {
+    MapStore store(path);
+    cap_file_size(1024);
+    return storage_error_code(path, [&] { store.compact(); });
+  });
+  ASSERT_EQ(code, 0) << kChildCodes;
   MapStore store(path);
   EXPECT_EQ(store.frame_count(), static_cast<std::size_t>(kCommitted));
   map::GlobalMap expected;
@@ -329,41 +352,21 @@ TEST(MapStoreTest, FailedWriteRaisesStorageErrorAndKeepsCommittedFrames) {
   test::ScratchDir dir;
   const auto path = dir / "map.db";
   constexpr int kCommitted = 4;
-  const pid_t child = fork();
-  ASSERT_GE(child, 0);
-  if (child == 0) {
-    // Child: commit frames, then cap the file size just above the current files and write a big
-    // frame. Exit 0 only when that write fails with a StorageError naming the store.
-    int code = 1;
-    try {
-      std::signal(SIGXFSZ, SIG_IGN);
-      map::GlobalMap map;
-      MapStore store(path);
-      drive(map, kCommitted, &store);
-      std::error_code ec;
-      std::uintmax_t biggest = std::filesystem::file_size(path, ec);
-      const auto wal = std::filesystem::path(path.string() + "-wal");
-      if (std::filesystem::exists(wal)) biggest = std::max(biggest, std::filesystem::file_size(wal));
-      const rlimit limit{biggest + 1024, biggest + 1024};
-      setrlimit(RLIMIT_FSIZE, &limit);
-      const auto big = frame_cells(kCommitted, 400);
-      const auto report = map.integrate(kCommitted, frame_pose(kCommitted), big);
-      try {
-        store.commit_frame(kCommitted, frame_pose(kCommitted), report, map);
-        code = 2;  // the write should not have fit
-      } catch (const StorageError& e) {
-        code = std::string(e.what()).find(path.string()) != std::string::npos ? 0 : 3;
-      }
-    } catch (...) {
-      code = 4;
-    }
-    _exit(code);
-  }
-  int status = 0;
-  ASSERT_EQ(waitpid(child, &status, 0), child);
-  ASSERT_TRUE(WIFEXITED(status));
-  ASSERT_EQ(WEXITSTATUS(status), 0) << "child exit codes: 2 = write succeeded, 3 = message "
-                                       "without the path, 4 = unexpected error";
+  // Child: commit frames, then cap the file size just above the current files and write a big
+  // frame, which must fail with a StorageError naming the store.
+  const int code = exit_code_in_child([&] {
+    map::GlobalMap map;
+    MapStore store(path);
+    drive(map, kCommitted, &store);
+    std::error_code ec;
+    std::uintmax_t biggest = std::filesystem::file_size(path, ec);
+    const auto wal = std::filesystem::path(path.string() + "-wal");
+    if (std::filesystem::exists(wal)) biggest = std::max(biggest, std::filesystem::file_size(wal));
+    cap_file_size(biggest + 1024);
+    const auto report = map.integrate(kCommitted, frame_pose(kCommitted), frame_cells(kCommitted, 400));
+    return storage_error_code(path, [&] { store.commit_frame(kCommitted, frame_pose(kCommitted), report, map); });
+  });
+  ASSERT_EQ(code, 0) << kChildCodes;
   // The committed frames are intact and equal to a map built from the same frames.
   MapStore store(path);
   EXPECT_EQ(store.frame_count(), static_cast<std::size_t>(kCommitted));

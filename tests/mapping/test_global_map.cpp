@@ -307,7 +307,20 @@ TEST(Fusion, ASingleViewSurfaceNothingComesNearIsPrunedAfterTheTimeout) {
   ASSERT_EQ(map.surface(far_surface)->observations, 1u);
   // The panel along the road is seen again in frame 1: confirmed, never timed out.
   map.integrate(1, Pose::Identity(), std::vector<Planecell>{scene.along()});
-  // A map restored half-way (what the store holds after frame 4) resumes the same clock.
+  // Frames 2–10 see the road only. `resumed` is restored half-way (from what the store holds
+  // after frame 4) and must resume the same clock.
+  auto check = [&](GlobalMap& m, std::uint64_t f, const char* which) {
+    const auto r = m.integrate(f, Pose::Identity(), scene.road());
+    if (f < 10) {
+      // Younger than the time-out and nothing near it: kept.
+      EXPECT_TRUE(r.pruned_surfaces.empty()) << which << " frame " << f;
+      EXPECT_NE(m.surface(far_surface), nullptr) << which << " frame " << f;
+    } else {
+      // Stored in frame 0, still one observation in frame 10: gone with its cell.
+      EXPECT_EQ(r.pruned_surfaces, (std::vector<std::uint32_t>{far_surface})) << which;
+      EXPECT_EQ(r.removed_cells, (std::vector<std::uint32_t>{far_cell})) << which;
+    }
+  };
   GlobalMap resumed;
   for (std::uint64_t f = 2; f <= 10; ++f) {
     if (f == 5) {
@@ -317,25 +330,8 @@ TEST(Fusion, ASingleViewSurfaceNothingComesNearIsPrunedAfterTheTimeout) {
       for (const auto& [id, s] : map.surfaces()) surfaces.push_back(s);
       resumed = GlobalMap::restore(config, cells, surfaces, map.next_cell_id(), map.next_surface_id());
     }
-    if (f >= 5) {
-      const auto r = resumed.integrate(f, Pose::Identity(), scene.road());
-      if (f < 10) {
-        EXPECT_TRUE(r.pruned_surfaces.empty()) << "frame " << f;
-      } else {
-        EXPECT_EQ(r.pruned_surfaces, (std::vector<std::uint32_t>{far_surface}));
-        EXPECT_EQ(r.removed_cells, (std::vector<std::uint32_t>{far_cell}));
-      }
-    }
-    const auto r = map.integrate(f, Pose::Identity(), scene.road());
-    if (f < 10) {
-      // Younger than the time-out and nothing near it: kept.
-      EXPECT_TRUE(r.pruned_surfaces.empty()) << "frame " << f;
-      EXPECT_NE(map.surface(far_surface), nullptr) << "frame " << f;
-    } else {
-      // Stored in frame 0, still one observation in frame 10: gone with its cell.
-      EXPECT_EQ(r.pruned_surfaces, (std::vector<std::uint32_t>{far_surface}));
-      EXPECT_EQ(r.removed_cells, (std::vector<std::uint32_t>{far_cell}));
-    }
+    if (f >= 5) check(resumed, f, "resumed");
+    check(map, f, "uninterrupted");
   }
   EXPECT_EQ(map.cell(far_cell), nullptr);
   ASSERT_NE(map.surface(along_surface), nullptr);
