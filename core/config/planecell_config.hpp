@@ -31,6 +31,18 @@ struct ExtractionConfig {
   bool fill_planeless = true;  ///< dense disparity of planeless cells from the farther neighbour
   bool background_fill_holes = false;  ///< input holes between two cells take the farther plane
   int random_seed = 1;         ///< RANSAC sampling seed (results are deterministic)
+  /// Photometric refinement of each plane against the stereo pair (extraction/photometric_planes;
+  /// only where the right image is passed): Levenberg–Marquardt steps per cell, 0 = off. Off by
+  /// default: it removes SGM's slant bias from the synthetic street's road (bottom rows −1.4 →
+  /// −0.1 px) and lowers the pose refinement's drift, but costs ~7 ms per 1242×375 frame and
+  /// raised bad-2 by 0.1–0.2 points on the KITTI and Middlebury samples (docs/PERFORMANCE.md,
+  /// "Photometric planes").
+  int photometric_iterations = 0;
+  int photometric_sample_step = 2;           ///< every n-th pixel in u and v
+  double photometric_min_gradient = 0.5;     ///< textured samples only (grey levels / px along u)
+  double photometric_huber_grey = 8.0;       ///< Huber threshold (grey levels)
+  double photometric_max_shift_px = 8.0;     ///< a refinement moving the plane farther is refused
+  double photometric_min_cost_ratio = 0.3;   ///< ... and one lowering the cost less than this
 };
 
 template <class Visitor>
@@ -55,6 +67,12 @@ void visit_fields(ExtractionConfig& c, Visitor&& visit) {
   visit("fill_planeless", c.fill_planeless);
   visit("background_fill_holes", c.background_fill_holes);
   visit("random_seed", c.random_seed);
+  visit("photometric_iterations", c.photometric_iterations);
+  visit("photometric_sample_step", c.photometric_sample_step);
+  visit("photometric_min_gradient", c.photometric_min_gradient);
+  visit("photometric_huber_grey", c.photometric_huber_grey);
+  visit("photometric_max_shift_px", c.photometric_max_shift_px);
+  visit("photometric_min_cost_ratio", c.photometric_min_cost_ratio);
 }
 
 }  // namespace planecell

@@ -11,6 +11,7 @@
 
 #include "core/error.hpp"
 #include "mapping/planecell/conversion_3d.hpp"
+#include "mapping/planecell/photometric_planes.hpp"
 #include "mapping/planecell/superpixel_state.hpp"
 #include "mapping/planecell/vertex_extraction.hpp"
 
@@ -43,6 +44,12 @@ void validate(const ExtractionConfig& c) {
     fail("min_valid_ratio must be in [0, 1]");
   if (!(c.polygon_tolerance_px >= 0.0)) fail("polygon_tolerance_px must be >= 0");
   if (!(c.max_time_ms >= 0.0)) fail("max_time_ms must be >= 0");
+  if (c.photometric_iterations < 0 || c.photometric_sample_step < 1)
+    fail("photometric_iterations must be >= 0 and photometric_sample_step >= 1");
+  if (!(c.photometric_min_gradient >= 0.0) || !(c.photometric_huber_grey > 0.0) ||
+      !(c.photometric_max_shift_px > 0.0) || !(c.photometric_min_cost_ratio > 0.0 && c.photometric_min_cost_ratio <= 1.0))
+    fail("photometric_min_gradient must be >= 0, photometric_huber_grey and photometric_max_shift_px > 0, "
+         "photometric_min_cost_ratio in (0, 1]");
 }
 
 /// Mean colour (R, G, B) and normalised 64-bin colour histogram of every cell, in one raster
@@ -118,6 +125,11 @@ cv::Mat mark_outliers(const detail::SuperpixelState& s, double threshold_px) {
 
 PlanecellFrame extract_planecells(const cv::Mat& left, const cv::Mat& disparity,
                                   const StereoCamera& camera, const ExtractionConfig& config) {
+  return extract_planecells(left, cv::Mat(), disparity, camera, config);
+}
+
+PlanecellFrame extract_planecells(const cv::Mat& left, const cv::Mat& right, const cv::Mat& disparity,
+                                  const StereoCamera& camera, const ExtractionConfig& config) {
   const auto t_start = Clock::now();
   if (left.empty()) throw InputError("extract_planecells: left image is empty");
   if (left.type() != CV_8UC3 && left.type() != CV_8UC1)
@@ -128,6 +140,8 @@ PlanecellFrame extract_planecells(const cv::Mat& left, const cv::Mat& disparity,
     throw InputError("extract_planecells: disparity is " + std::to_string(disparity.cols) + "x" +
                      std::to_string(disparity.rows) + " but the left image is " +
                      std::to_string(left.cols) + "x" + std::to_string(left.rows));
+  if (!right.empty() && (right.size() != left.size() || (right.type() != CV_8UC3 && right.type() != CV_8UC1)))
+    throw InputError("extract_planecells: the right image must be CV_8UC3 or CV_8UC1 of the left image's size");
   validate(config);
   camera.validate("extract_planecells camera");
 
@@ -168,6 +182,23 @@ PlanecellFrame extract_planecells(const cv::Mat& left, const cv::Mat& disparity,
   const detail::SegmentSamples samples = detail::gather_segment_samples(state);
   detail::fit_segment_planes(state, samples, config, fits);
   frame.timings.planes_ms += elapsed_ms(t);
+
+  // 4b. Photometric refinement of the planes against the pair (removes SGM's slant bias).
+  if (!right.empty() && config.photometric_iterations > 0) {
+    t = Clock::now();
+    cv::Mat left_grey = left, right_grey = right;
+    if (left.type() == CV_8UC3) cv::cvtColor(left, left_grey, cv::COLOR_BGR2GRAY);
+    if (right.type() == CV_8UC3) cv::cvtColor(right, right_grey, cv::COLOR_BGR2GRAY);
+    PhotometricPlaneConfig pc;
+    pc.iterations = config.photometric_iterations;
+    pc.sample_step = config.photometric_sample_step;
+    pc.min_gradient = config.photometric_min_gradient;
+    pc.huber_grey = config.photometric_huber_grey;
+    pc.max_shift_px = config.photometric_max_shift_px;
+    pc.min_cost_ratio = config.photometric_min_cost_ratio;
+    refine_planes_photometric(left_grey, right_grey, state.labels, state.planes, state.has_plane, pc);
+    frame.timings.photometric_ms = elapsed_ms(t);
+  }
 
   // 5. Vertices, 2D→3D, attributes, dense disparity.
   t = Clock::now();

@@ -14,6 +14,7 @@ struct ExtractionTimings {
   double superpixels_ms = 0.0;
   double planes_ms = 0.0;
   double boundary_update_ms = 0.0;
+  double photometric_ms = 0.0;   ///< photometric plane refinement (0 without a right image)
   double vertices_ms = 0.0;      ///< vertices, 2D→3D, cell attributes and the dense disparity
   double total_ms = 0.0;
 };
@@ -43,6 +44,13 @@ inline int colour_histogram_bin(unsigned char b, unsigned char g, unsigned char 
 ///  4. vertices, 2D→3D conversion, cell attributes and the dense plane disparity.
 /// Throws InputError on empty images or size/type mismatches, ConfigError on a bad config.
 PlanecellFrame extract_planecells(const cv::Mat& left, const cv::Mat& disparity,
+                                  const StereoCamera& camera, const ExtractionConfig& config);
+
+/// The same, with the right image of the rectified pair (grey or BGR, same size as `left`): after
+/// the final plane fit every plane is refined photometrically against the pair
+/// (photometric_planes.hpp; ExtractionConfig::photometric_iterations, 0 = off), which removes
+/// SGM's slant bias from the planes. An empty `right` skips the refinement.
+PlanecellFrame extract_planecells(const cv::Mat& left, const cv::Mat& right, const cv::Mat& disparity,
                                   const StereoCamera& camera, const ExtractionConfig& config);
 
 }  // namespace planecell::extraction

@@ -73,7 +73,7 @@ int run_extract(const ExtractOptions& o, const CommandContext& ctx) {
   const double disparity_ms =
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
 
-  const auto frame = extraction::extract_planecells(left, disparity, camera, config.extraction);
+  const auto frame = extraction::extract_planecells(left, right, disparity, camera, config.extraction);
   const auto compact = io::encode_planecells(frame.cells, camera, 0);
 
   const fs::path out(o.out_dir);

@@ -303,7 +303,7 @@ std::vector<StereoMethod> default_stereo_methods(const SgmConfig& sgm,
                        c.max_disparity = std::min(s.max_disparity, s.left.cols - 1);
                        const cv::Mat raw = stereo::compute_disparity(s.left, s.right, c);
                        return extraction::extract_planecells(
-                                  s.left, raw, s.camera.value_or(StereoCamera{}), extraction)
+                                  s.left, s.right, raw, s.camera.value_or(StereoCamera{}), extraction)
                            .dense_disparity;
                      }});
   return methods;

@@ -28,7 +28,8 @@ void sgm_stage(FrameWork& work, const SgmConfig& config) {
 
 void extract_stage(FrameWork& work, const ExtractionConfig& config) {
   work.timed("extract", [&] {
-    work.cells = extraction::extract_planecells(work.frame.left, work.disparity, work.frame.camera, config);
+    work.cells = extraction::extract_planecells(work.frame.left, work.frame.right, work.disparity,
+                                                    work.frame.camera, config);
     for (auto& cell : work.cells.cells) cell.frame_id = work.frame_id;
   });
 }
