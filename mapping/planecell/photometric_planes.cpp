@@ -1,19 +1,18 @@
 #include "mapping/planecell/photometric_planes.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <string>
 
 #include <Eigen/Dense>
+#include <ceres/ceres.h>
 #include <opencv2/imgproc.hpp>
 
 #include "core/error.hpp"
 
 namespace planecell::extraction {
 namespace {
-
-using Vec5 = Eigen::Matrix<double, 5, 1>;
-using Mat5 = Eigen::Matrix<double, 5, 5>;
 
 /// One textured sample of a cell: pixel (u, v) and its smoothed left intensity.
 struct Sample {
@@ -22,52 +21,77 @@ struct Sample {
   float left = 0.0f;
 };
 
-/// Huber's ρ(r) with threshold k.
-double huber(double r, double k) {
-  const double a = std::abs(r);
-  return a <= k ? 0.5 * r * r : k * (a - 0.5 * k);
-}
-
-/// The photometric error of one cell's samples under the plane d = a·(u − ū) + b·(v − v̄) + c
-/// and brightness offset β, with the normal equations of a Gauss–Newton step in x = (a, b, c, β).
-struct CellProblem {
-  std::span<const Sample> samples;
-  const cv::Mat* right = nullptr;  ///< smoothed right image, CV_32F
-  double u_mean = 0.0;
-  double v_mean = 0.0;
-  double huber_k = 8.0;
-
-  /// Robust cost E and, when `normal` is given, H = Σ w J Jᵀ and g = Σ w J r (IRLS weights).
-  double evaluate(const Vec5& x, Mat5* hessian, Vec5* gradient,
-                  int* used) const {
-    const int w = right->cols;
-    double cost = 0.0;
-    int n = 0;
-    if (hessian) hessian->setZero(), gradient->setZero();
-    for (const Sample& s : samples) {
-      const double du = s.u - u_mean, dv = s.v - v_mean;
-      const double d = x[0] * du + x[1] * dv + x[2];
-      const double xr = s.u - d;
-      if (!(xr >= 0.0) || xr >= w - 1) continue;
-      const int x0 = static_cast<int>(xr);
-      const double t = xr - x0;
-      const float* row = right->ptr<float>(static_cast<int>(s.v));
-      const double slope = row[x0 + 1] - row[x0];
-      const double right_value = row[x0] + t * slope;
-      const double r = s.left - x[4] * right_value - x[3];
-      cost += huber(r, huber_k);
-      ++n;
-      if (!hessian) continue;
-      const double weight = std::abs(r) <= huber_k ? 1.0 : huber_k / std::abs(r);
-      Vec5 j;  // ∂r/∂x (∂d/∂a = u − ū, …)
-      j << x[4] * slope * du, x[4] * slope * dv, x[4] * slope, -1.0, -right_value;
-      hessian->noalias() += weight * j * j.transpose();
-      *gradient += weight * r * j;
-    }
-    if (used) *used = n;
-    return cost;
+/// The photometric residuals of one cell's samples, r_p = I_L(p) − α·I_R(u − d(p), v) − β, with
+/// d(p) = a·(u − ū) + b·(v − v̄) + c, over the parameter block x = (a, b, c, β, α). Analytic
+/// Jacobian (I_R linear along the row between its pixels):
+///   ∂r/∂(a, b, c) = α·∂I_R/∂u·(u − ū, v − v̄, 1),  ∂r/∂β = −1,  ∂r/∂α = −I_R.
+/// A sample whose match falls outside the right image has residual 0 and no gradient; `used`
+/// counts the others so that costs are compared over the same samples.
+class PhotometricCost final : public ceres::CostFunction {
+ public:
+  PhotometricCost(std::span<const Sample> samples, const cv::Mat& right, double u_mean, double v_mean)
+      : samples_(samples), right_(right), u_mean_(u_mean), v_mean_(v_mean) {
+    set_num_residuals(static_cast<int>(samples.size()));
+    mutable_parameter_block_sizes()->push_back(5);
   }
+
+  bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override {
+    const double* x = parameters[0];
+    double* jacobian = jacobians ? jacobians[0] : nullptr;
+    const int w = right_.cols;
+    for (std::size_t i = 0; i < samples_.size(); ++i) {
+      const Sample& s = samples_[i];
+      const double du = s.u - u_mean_, dv = s.v - v_mean_;
+      const double xr = s.u - (x[0] * du + x[1] * dv + x[2]);
+      double* j = jacobian ? jacobian + 5 * i : nullptr;
+      if (!(xr >= 0.0) || xr >= w - 1) {
+        residuals[i] = 0.0;
+        if (j) std::fill(j, j + 5, 0.0);
+        continue;
+      }
+      const int x0 = static_cast<int>(xr);
+      const float* row = right_.ptr<float>(static_cast<int>(s.v));
+      const double slope = row[x0 + 1] - row[x0];
+      const double right_value = row[x0] + (xr - x0) * slope;
+      residuals[i] = s.left - x[4] * right_value - x[3];
+      if (j) {
+        j[0] = x[4] * slope * du, j[1] = x[4] * slope * dv, j[2] = x[4] * slope;
+        j[3] = -1.0, j[4] = -right_value;
+      }
+    }
+    return true;
+  }
+
+  /// Samples whose match lies inside the right image under `x`.
+  int used(const double* x) const {
+    int n = 0;
+    for (const Sample& s : samples_) {
+      const double xr = s.u - (x[0] * (s.u - u_mean_) + x[1] * (s.v - v_mean_) + x[2]);
+      n += xr >= 0.0 && xr < right_.cols - 1;
+    }
+    return n;
+  }
+
+ private:
+  std::span<const Sample> samples_;
+  const cv::Mat& right_;
+  double u_mean_, v_mean_;
 };
+
+/// Σ ρ(r_p) of the cell at `x` (Huber ρ with threshold k; Ceres' cost is the same sum).
+double robust_cost(const PhotometricCost& cost, const ceres::LossFunction& loss, double* x,
+                   std::vector<double>& residuals) {
+  residuals.resize(static_cast<std::size_t>(cost.num_residuals()));
+  const double* parameters[] = {x};
+  cost.Evaluate(parameters, residuals.data(), nullptr);
+  double sum = 0.0;
+  for (double r : residuals) {
+    double rho[3];
+    loss.Evaluate(r * r, rho);
+    sum += 0.5 * rho[0];
+  }
+  return sum;
+}
 
 }  // namespace
 
@@ -118,6 +142,17 @@ PhotometricPlaneStats refine_planes_photometric(const cv::Mat& left_grey, const 
     }
   }
 
+  // One small problem per cell (5 parameters, many residuals): Levenberg–Marquardt on the dense
+  // normal equations (5×5), Huber loss.
+  ceres::HuberLoss loss(config.huber_grey);
+  ceres::Problem::Options problem_options;
+  problem_options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  ceres::Solver::Options options;
+  options.linear_solver_type = ceres::DENSE_NORMAL_CHOLESKY;
+  options.max_num_iterations = config.iterations;
+  options.logging_type = ceres::SILENT;
+  options.num_threads = 1;
+  std::vector<double> residuals;
   for (std::size_t k = 0; k < n_cells; ++k) {
     if (!has_plane[k]) continue;
     const std::span<const Sample> cell(samples.data() + first[k], samples.data() + first[k + 1]);
@@ -125,51 +160,41 @@ PhotometricPlaneStats refine_planes_photometric(const cv::Mat& left_grey, const 
       ++stats.kept;
       continue;
     }
-    CellProblem problem{cell, &right, 0.0, 0.0, config.huber_grey};
-    for (const Sample& s : cell) problem.u_mean += s.u, problem.v_mean += s.v;
-    problem.u_mean /= static_cast<double>(cell.size());
-    problem.v_mean /= static_cast<double>(cell.size());
+    double u_mean = 0.0, v_mean = 0.0;
+    for (const Sample& sample : cell) u_mean += sample.u, v_mean += sample.v;
+    u_mean /= static_cast<double>(cell.size());
+    v_mean /= static_cast<double>(cell.size());
     const DisparityPlane& fitted = planes[k];
-    Vec5 x;
-    x << fitted.a, fitted.b, fitted.at(problem.u_mean, problem.v_mean), 0.0, 1.0;
-    // β for the fitted plane first (a few IRLS steps of the offset alone): the baseline cost.
-    Mat5 h;
-    Vec5 g;
-    int used = 0;
-    for (int i = 0; i < 3; ++i) {
-      problem.evaluate(x, &h, &g, &used);
-      if (h(3, 3) > 0.0) x[3] -= g[3] / h(3, 3);
+    // x = (a, b, c at the samples' centre, β, α); β starts at the mean residual of the fit.
+    std::array<double, 5> x{fitted.a, fitted.b, fitted.at(u_mean, v_mean), 0.0, 1.0};
+    auto* cost = new PhotometricCost(cell, right, u_mean, v_mean);
+    const int used0 = cost->used(x.data());
+    if (used0 < config.min_samples) {
+      delete cost;
+      ++stats.kept;
+      continue;
     }
-    const Vec5 start = x;
-    const double cost0 = problem.evaluate(x, nullptr, nullptr, &used);
-    const int used0 = used;
-    double best_cost = cost0;
-    Vec5 best = x;
-    double lambda = 1e-3;  // Levenberg–Marquardt damping on diag(H)
-    for (int it = 0; it < config.iterations; ++it) {
-      problem.evaluate(x, &h, &g, &used);
-      Mat5 damped = h;
-      damped.diagonal() *= 1.0 + lambda;
-      const Vec5 delta = damped.ldlt().solve(-g);
-      if (!delta.allFinite()) break;
-      const Vec5 trial = x + delta;
-      int used_trial = 0;
-      const double cost = problem.evaluate(trial, nullptr, nullptr, &used_trial);
-      // Costs are comparable only over the same samples (a shift can push some out of the image).
-      if (used_trial == used0 && cost < best_cost) {
-        best_cost = cost, best = trial, x = trial;
-        lambda = std::max(1e-6, lambda * 0.3);
-      } else {
-        lambda *= 10.0;
-      }
-    }
+    residuals.resize(cell.size());
+    cost->Evaluate(std::array<const double*, 1>{x.data()}.data(), residuals.data(), nullptr);
+    double offset = 0.0;
+    for (int i = 0; i < cost->num_residuals(); ++i) offset += residuals[static_cast<std::size_t>(i)];
+    x[3] = offset / used0;
+    const std::array<double, 5> start = x;
+    const double cost0 = robust_cost(*cost, loss, x.data(), residuals);
+    ceres::Problem problem(problem_options);
+    problem.AddResidualBlock(cost, &loss, x.data());
+    ceres::Solver::Summary summary;
+    ceres::Solve(options, &problem, &summary);
+    const int used1 = cost->used(x.data());
+    const double cost1 = robust_cost(*cost, loss, x.data(), residuals);
+    const std::array<double, 5>& best = x;  // Ceres keeps the best point it reached
+    const double best_cost = used1 == used0 ? cost1 : cost0;  // other samples: not comparable
     // Largest disparity change over the samples (linear in u, v: attained at an extreme sample).
     double shift = 0.0;
-    const Eigen::Vector3d change = (best - start).head<3>();
+    const Eigen::Vector3d change(best[0] - start[0], best[1] - start[1], best[2] - start[2]);
     if (!(best[4] > 0.5 && best[4] < 2.0)) shift = 1e9;  // a gain this far off is not a match
-    for (const Sample& s : cell)
-      shift = std::max(shift, std::abs(change[0] * (s.u - problem.u_mean) +
-                                       change[1] * (s.v - problem.v_mean) + change[2]));
+    for (const Sample& sample : cell)
+      shift = std::max(shift, std::abs(change[0] * (sample.u - u_mean) + change[1] * (sample.v - v_mean) + change[2]));
     if (!(best_cost < config.min_cost_ratio * cost0) || shift > config.max_shift_px) {
       ++stats.kept;
       continue;
@@ -177,7 +202,7 @@ PhotometricPlaneStats refine_planes_photometric(const cv::Mat& left_grey, const 
     DisparityPlane& plane = planes[k];
     plane.a = best[0];
     plane.b = best[1];
-    plane.c = best[2] - best[0] * problem.u_mean - best[1] * problem.v_mean;
+    plane.c = best[2] - best[0] * u_mean - best[1] * v_mean;
     ++stats.refined;
   }
   return stats;

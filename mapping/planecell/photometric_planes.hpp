@@ -10,17 +10,17 @@
 /// and a pose aligned to it pitches and sinks.
 ///
 /// The raw matching evidence has no smoothness term. Each cell's plane θ = (a, b, c),
-/// d(u, v) = a·u + b·v + c, is therefore refined by Gauss–Newton on the cell's photometric error
+/// d(u, v) = a·u + b·v + c, is therefore refined by minimising the cell's photometric error
 ///   E(θ, α, β) = Σ_p ρ( I_L(p) − α·I_R(u − d(p), v) − β ),
 /// over textured pixels p of the cell (|∂I_L/∂u| ≥ min_gradient), with α, β the brightness gain
 /// and offset between the two cameras and ρ Huber's loss. I_R is interpolated linearly along the
 /// row (the pair is rectified); ∂r/∂θ = α·∂I_R/∂u · (u, v, 1), ∂r/∂β = −1, ∂r/∂α = −I_R.
 /// Both images are smoothed by a 3×3 Gaussian first (wider convergence basin, less noise).
-/// Levenberg–Marquardt damping keeps each step a descent. The refined plane replaces the RANSAC
-/// one only when E falls below min_cost_ratio of the fitted plane's E, no sample moves by more
-/// than max_shift_px and α stays in (0.5, 2): a cell whose texture does not pin the plane, or
-/// whose better photometric fit is marginal (non-planar content, occlusion inside the cell),
-/// keeps its fit.
+/// Ceres solves each cell (Levenberg–Marquardt, dense normal equations, analytic Jacobian). The refined plane
+/// replaces the RANSAC one only when E falls below min_cost_ratio of the fitted plane's E, no
+/// sample moves by more than max_shift_px and α stays in (0.5, 2): a cell whose texture does not
+/// pin the plane, or whose better photometric fit is marginal (non-planar content, occlusion
+/// inside the cell), keeps its fit.
 #include <cstdint>
 #include <span>
 #include <vector>
