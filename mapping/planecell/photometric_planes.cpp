@@ -6,7 +6,7 @@
 #include <string>
 
 #include <Eigen/Dense>
-#include <ceres/ceres.h>
+#include <ceres/tiny_solver.h>
 #include <opencv2/imgproc.hpp>
 
 #include "core/error.hpp"
@@ -22,76 +22,88 @@ struct Sample {
 };
 
 /// The photometric residuals of one cell's samples, r_p = I_L(p) − α·I_R(u − d(p), v) − β, with
-/// d(p) = a·(u − ū) + b·(v − v̄) + c, over the parameter block x = (a, b, c, β, α). Analytic
-/// Jacobian (I_R linear along the row between its pixels):
+/// d(p) = a·(u − ū) + b·(v − v̄) + c, over x = (a, b, c, β, α), robustified for
+/// ceres::TinySolver: it minimises ½Σ r̃_p², and r̃ = sign(r)·√(2ρ(r)) with Huber's ρ (threshold
+/// k) makes that Σ ρ(r_p): r̃ = r for |r| ≤ k, else sign(r)·√(2k|r| − k²), dr̃/dr = k/|r̃|.
+/// Analytic Jacobian (I_R linear along the row between its pixels):
 ///   ∂r/∂(a, b, c) = α·∂I_R/∂u·(u − ū, v − v̄, 1),  ∂r/∂β = −1,  ∂r/∂α = −I_R.
 /// A sample whose match falls outside the right image has residual 0 and no gradient; `used`
 /// counts the others so that costs are compared over the same samples.
-class PhotometricCost final : public ceres::CostFunction {
- public:
-  PhotometricCost(std::span<const Sample> samples, const cv::Mat& right, double u_mean, double v_mean)
-      : samples_(samples), right_(right), u_mean_(u_mean), v_mean_(v_mean) {
-    set_num_residuals(static_cast<int>(samples.size()));
-    mutable_parameter_block_sizes()->push_back(5);
+struct PhotometricResiduals {
+  using Scalar = double;
+  enum { NUM_RESIDUALS = Eigen::Dynamic, NUM_PARAMETERS = 5 };
+
+  std::span<const Sample> samples;
+  const cv::Mat* right = nullptr;  ///< smoothed right image, CV_32F
+  double u_mean = 0.0;
+  double v_mean = 0.0;
+  double huber_k = 8.0;
+
+  int NumResiduals() const { return static_cast<int>(samples.size()); }
+
+  /// The raw residual r of sample `s` at `x`, with ∂I_R/∂u and I_R at its match; false when the
+  /// match falls outside the right image.
+  bool raw_residual(const Sample& s, const double* x, double& r, double& slope, double& right_value) const {
+    const double xr = s.u - (x[0] * (s.u - u_mean) + x[1] * (s.v - v_mean) + x[2]);
+    if (!(xr >= 0.0) || xr >= right->cols - 1) return false;
+    const int x0 = static_cast<int>(xr);
+    const float* row = right->ptr<float>(static_cast<int>(s.v));
+    slope = row[x0 + 1] - row[x0];
+    right_value = row[x0] + (xr - x0) * slope;
+    r = s.left - x[4] * right_value - x[3];
+    return true;
   }
 
-  bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override {
-    const double* x = parameters[0];
-    double* jacobian = jacobians ? jacobians[0] : nullptr;
-    const int w = right_.cols;
-    for (std::size_t i = 0; i < samples_.size(); ++i) {
-      const Sample& s = samples_[i];
-      const double du = s.u - u_mean_, dv = s.v - v_mean_;
-      const double xr = s.u - (x[0] * du + x[1] * dv + x[2]);
-      double* j = jacobian ? jacobian + 5 * i : nullptr;
-      if (!(xr >= 0.0) || xr >= w - 1) {
+  bool operator()(const double* x, double* residuals, double* jacobian) const {
+    const std::size_t n = samples.size();
+    for (std::size_t i = 0; i < n; ++i) {
+      const Sample& s = samples[i];
+      double r = 0.0, slope = 0.0, right_value = 0.0;
+      if (!raw_residual(s, x, r, slope, right_value)) {
         residuals[i] = 0.0;
-        if (j) std::fill(j, j + 5, 0.0);
+        if (jacobian)
+          for (std::size_t p = 0; p < 5; ++p) jacobian[i + p * n] = 0.0;  // column-major, n × 5
         continue;
       }
-      const int x0 = static_cast<int>(xr);
-      const float* row = right_.ptr<float>(static_cast<int>(s.v));
-      const double slope = row[x0 + 1] - row[x0];
-      const double right_value = row[x0] + (xr - x0) * slope;
-      residuals[i] = s.left - x[4] * right_value - x[3];
-      if (j) {
-        j[0] = x[4] * slope * du, j[1] = x[4] * slope * dv, j[2] = x[4] * slope;
-        j[3] = -1.0, j[4] = -right_value;
+      double scale = 1.0;  // dr̃/dr
+      if (std::abs(r) <= huber_k) {
+        residuals[i] = r;
+      } else {
+        const double rooted = std::sqrt(2.0 * huber_k * std::abs(r) - huber_k * huber_k);
+        residuals[i] = std::copysign(rooted, r);
+        scale = huber_k / rooted;
+      }
+      if (jacobian) {
+        const double du = s.u - u_mean, dv = s.v - v_mean;
+        jacobian[i] = scale * x[4] * slope * du;
+        jacobian[i + n] = scale * x[4] * slope * dv;
+        jacobian[i + 2 * n] = scale * x[4] * slope;
+        jacobian[i + 3 * n] = -scale;
+        jacobian[i + 4 * n] = -scale * right_value;
       }
     }
     return true;
   }
 
-  /// Samples whose match lies inside the right image under `x`.
-  int used(const double* x) const {
+  /// Samples whose match lies inside the right image under `x`, and Σ r over them (raw).
+  int used(const double* x, double* residual_sum = nullptr) const {
     int n = 0;
-    for (const Sample& s : samples_) {
-      const double xr = s.u - (x[0] * (s.u - u_mean_) + x[1] * (s.v - v_mean_) + x[2]);
-      n += xr >= 0.0 && xr < right_.cols - 1;
-    }
+    double sum = 0.0, r = 0.0, slope = 0.0, right_value = 0.0;
+    for (const Sample& s : samples)
+      if (raw_residual(s, x, r, slope, right_value)) ++n, sum += r;
+    if (residual_sum) *residual_sum = sum;
     return n;
   }
 
- private:
-  std::span<const Sample> samples_;
-  const cv::Mat& right_;
-  double u_mean_, v_mean_;
-};
-
-/// Σ ρ(r_p) of the cell at `x` (Huber ρ with threshold k; Ceres' cost is the same sum).
-double robust_cost(const PhotometricCost& cost, const ceres::LossFunction& loss, double* x,
-                   std::vector<double>& residuals) {
-  residuals.resize(static_cast<std::size_t>(cost.num_residuals()));
-  const double* parameters[] = {x};
-  cost.Evaluate(parameters, residuals.data(), nullptr);
-  double sum = 0.0;
-  for (double r : residuals) {
-    double rho[3];
-    loss.Evaluate(r * r, rho);
-    sum += 0.5 * rho[0];
+  /// Σ ρ(r_p) at `x` (= ½Σ r̃²).
+  double cost(const double* x, std::vector<double>& residuals) const {
+    residuals.resize(samples.size());
+    (*this)(x, residuals.data(), nullptr);
+    double sum = 0.0;
+    for (double r : residuals) sum += 0.5 * r * r;
+    return sum;
   }
-  return sum;
-}
+};
 
 }  // namespace
 
@@ -142,16 +154,11 @@ PhotometricPlaneStats refine_planes_photometric(const cv::Mat& left_grey, const 
     }
   }
 
-  // One small problem per cell (5 parameters, many residuals): Levenberg–Marquardt on the dense
-  // normal equations (5×5), Huber loss.
-  ceres::HuberLoss loss(config.huber_grey);
-  ceres::Problem::Options problem_options;
-  problem_options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
-  ceres::Solver::Options options;
-  options.linear_solver_type = ceres::DENSE_NORMAL_CHOLESKY;
-  options.max_num_iterations = config.iterations;
-  options.logging_type = ceres::SILENT;
-  options.num_threads = 1;
+  // One small problem per cell (5 parameters, many residuals): ceres::TinySolver's
+  // Levenberg–Marquardt on the 5×5 normal equations, without a ceres::Problem's set-up per cell.
+  using Solver = ceres::TinySolver<PhotometricResiduals>;
+  Solver solver;
+  solver.options.max_num_iterations = config.iterations;
   std::vector<double> residuals;
   for (std::size_t k = 0; k < n_cells; ++k) {
     if (!has_plane[k]) continue;
@@ -165,30 +172,23 @@ PhotometricPlaneStats refine_planes_photometric(const cv::Mat& left_grey, const 
     u_mean /= static_cast<double>(cell.size());
     v_mean /= static_cast<double>(cell.size());
     const DisparityPlane& fitted = planes[k];
-    // x = (a, b, c at the samples' centre, β, α); β starts at the mean residual of the fit.
-    std::array<double, 5> x{fitted.a, fitted.b, fitted.at(u_mean, v_mean), 0.0, 1.0};
-    auto* cost = new PhotometricCost(cell, right, u_mean, v_mean);
-    const int used0 = cost->used(x.data());
+    const PhotometricResiduals problem{cell, &right, u_mean, v_mean, config.huber_grey};
+    // x = (a, b, c at the samples' centre, β, α); β starts at the fit's mean residual.
+    Solver::Parameters x;
+    x << fitted.a, fitted.b, fitted.at(u_mean, v_mean), 0.0, 1.0;
+    double offset = 0.0;
+    const int used0 = problem.used(x.data(), &offset);
     if (used0 < config.min_samples) {
-      delete cost;
       ++stats.kept;
       continue;
     }
-    residuals.resize(cell.size());
-    cost->Evaluate(std::array<const double*, 1>{x.data()}.data(), residuals.data(), nullptr);
-    double offset = 0.0;
-    for (int i = 0; i < cost->num_residuals(); ++i) offset += residuals[static_cast<std::size_t>(i)];
     x[3] = offset / used0;
-    const std::array<double, 5> start = x;
-    const double cost0 = robust_cost(*cost, loss, x.data(), residuals);
-    ceres::Problem problem(problem_options);
-    problem.AddResidualBlock(cost, &loss, x.data());
-    ceres::Solver::Summary summary;
-    ceres::Solve(options, &problem, &summary);
-    const int used1 = cost->used(x.data());
-    const double cost1 = robust_cost(*cost, loss, x.data(), residuals);
-    const std::array<double, 5>& best = x;  // Ceres keeps the best point it reached
-    const double best_cost = used1 == used0 ? cost1 : cost0;  // other samples: not comparable
+    const Solver::Parameters start = x;
+    const double cost0 = problem.cost(x.data(), residuals);
+    solver.Solve(problem, &x);
+    const double cost1 = problem.cost(x.data(), residuals);
+    const Solver::Parameters& best = x;
+    const double best_cost = problem.used(x.data()) == used0 ? cost1 : cost0;  // else not comparable
     // Largest disparity change over the samples (linear in u, v: attained at an extreme sample).
     double shift = 0.0;
     const Eigen::Vector3d change(best[0] - start[0], best[1] - start[1], best[2] - start[2]);
