@@ -189,14 +189,7 @@ PlanecellFrame extract_planecells(const cv::Mat& left, const cv::Mat& right, con
     cv::Mat left_grey = left, right_grey = right;
     if (left.type() == CV_8UC3) cv::cvtColor(left, left_grey, cv::COLOR_BGR2GRAY);
     if (right.type() == CV_8UC3) cv::cvtColor(right, right_grey, cv::COLOR_BGR2GRAY);
-    PhotometricPlaneConfig pc;
-    pc.iterations = config.photometric_iterations;
-    pc.sample_step = config.photometric_sample_step;
-    pc.min_gradient = config.photometric_min_gradient;
-    pc.huber_grey = config.photometric_huber_grey;
-    pc.max_shift_px = config.photometric_max_shift_px;
-    pc.min_cost_ratio = config.photometric_min_cost_ratio;
-    refine_planes_photometric(left_grey, right_grey, state.labels, state.planes, state.has_plane, pc);
+    refine_planes_photometric(left_grey, right_grey, state.labels, state.planes, state.has_plane, config);
     frame.timings.photometric_ms = elapsed_ms(t);
   }
 

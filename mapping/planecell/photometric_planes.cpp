@@ -111,9 +111,8 @@ PhotometricPlaneStats refine_planes_photometric(const cv::Mat& left_grey, const 
                                                 std::span<const std::int32_t> labels,
                                                 std::span<DisparityPlane> planes,
                                                 std::span<const std::uint8_t> has_plane,
-                                                const PhotometricPlaneConfig& config) {
+                                                const ExtractionConfig& config) {
   PhotometricPlaneStats stats;
-  if (config.iterations <= 0) return stats;
   if (left_grey.type() != CV_8UC1 || right_grey.type() != CV_8UC1 || left_grey.size() != right_grey.size())
     throw InputError("photometric plane refinement: left and right must be grey (CV_8UC1) images of one size");
   if (labels.size() != left_grey.total())
@@ -121,8 +120,9 @@ PhotometricPlaneStats refine_planes_photometric(const cv::Mat& left_grey, const 
                      std::to_string(labels.size()) + " labels, " + std::to_string(left_grey.total()) + " pixels)");
   if (planes.size() != has_plane.size())
     throw InputError("photometric plane refinement: planes and has_plane differ in length");
+  if (config.photometric_iterations <= 0) return stats;
   const int width = left_grey.cols, height = left_grey.rows;
-  const int step = std::max(1, config.sample_step);
+  const int step = std::max(1, config.photometric_sample_step);
   cv::Mat left, right;
   left_grey.convertTo(left, CV_32F);
   right_grey.convertTo(right, CV_32F);
@@ -135,7 +135,7 @@ PhotometricPlaneStats refine_planes_photometric(const cv::Mat& left_grey, const 
   auto textured = [&](int u, int v) {
     if (u < 1 || u >= width - 1) return false;
     const float* row = left.ptr<float>(v);
-    return std::abs(0.5f * (row[u + 1] - row[u - 1])) >= config.min_gradient;
+    return std::abs(0.5f * (row[u + 1] - row[u - 1])) >= config.photometric_min_gradient;
   };
   for (int v = 0; v < height; v += step)
     for (int u = 0; u < width; u += step) {
@@ -158,12 +158,12 @@ PhotometricPlaneStats refine_planes_photometric(const cv::Mat& left_grey, const 
   // Levenberg–Marquardt on the 5×5 normal equations, without a ceres::Problem's set-up per cell.
   using Solver = ceres::TinySolver<PhotometricResiduals>;
   Solver solver;
-  solver.options.max_num_iterations = config.iterations;
+  solver.options.max_num_iterations = config.photometric_iterations;
   std::vector<double> residuals;
   for (std::size_t k = 0; k < n_cells; ++k) {
     if (!has_plane[k]) continue;
     const std::span<const Sample> cell(samples.data() + first[k], samples.data() + first[k + 1]);
-    if (static_cast<int>(cell.size()) < config.min_samples) {
+    if (static_cast<int>(cell.size()) < kMinPhotometricSamples) {
       ++stats.kept;
       continue;
     }
@@ -172,13 +172,13 @@ PhotometricPlaneStats refine_planes_photometric(const cv::Mat& left_grey, const 
     u_mean /= static_cast<double>(cell.size());
     v_mean /= static_cast<double>(cell.size());
     const DisparityPlane& fitted = planes[k];
-    const PhotometricResiduals problem{cell, &right, u_mean, v_mean, config.huber_grey};
+    const PhotometricResiduals problem{cell, &right, u_mean, v_mean, config.photometric_huber_grey};
     // x = (a, b, c at the samples' centre, β, α); β starts at the fit's mean residual.
     Solver::Parameters x;
     x << fitted.a, fitted.b, fitted.at(u_mean, v_mean), 0.0, 1.0;
     double offset = 0.0;
     const int used0 = problem.used(x.data(), &offset);
-    if (used0 < config.min_samples) {
+    if (used0 < kMinPhotometricSamples) {
       ++stats.kept;
       continue;
     }
@@ -195,7 +195,7 @@ PhotometricPlaneStats refine_planes_photometric(const cv::Mat& left_grey, const 
     if (!(best[4] > 0.5 && best[4] < 2.0)) shift = 1e9;  // a gain this far off is not a match
     for (const Sample& sample : cell)
       shift = std::max(shift, std::abs(change[0] * (sample.u - u_mean) + change[1] * (sample.v - v_mean) + change[2]));
-    if (!(best_cost < config.min_cost_ratio * cost0) || shift > config.max_shift_px) {
+    if (!(best_cost < config.photometric_min_cost_ratio * cost0) || shift > config.photometric_max_shift_px) {
       ++stats.kept;
       continue;
     }

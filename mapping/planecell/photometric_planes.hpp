@@ -27,19 +27,14 @@
 
 #include <opencv2/core/mat.hpp>
 
+#include "core/config/planecell_config.hpp"
 #include "core/plane.hpp"
 
 namespace planecell::extraction {
 
-struct PhotometricPlaneConfig {
-  int iterations = 5;          ///< Levenberg–Marquardt steps per cell (0 = off)
-  int sample_step = 2;         ///< every n-th pixel in u and v
-  double min_gradient = 0.5;   ///< grey levels per pixel along the row (texture that measures d)
-  double huber_grey = 8.0;     ///< Huber threshold of the photometric residual (grey levels)
-  double max_shift_px = 8.0;   ///< a refined plane moving a sample farther than this is refused
-  double min_cost_ratio = 0.3; ///< accepted only when E falls below this share of the fit's E
-  int min_samples = 40;        ///< fewer textured samples: the plane is kept as fitted
-};
+/// Fewer textured samples than this in a cell: its plane is kept as fitted (five parameters need
+/// many more samples than five to be determined against image noise).
+inline constexpr int kMinPhotometricSamples = 40;
 
 /// What the refinement did to a frame's planes.
 struct PhotometricPlaneStats {
@@ -49,11 +44,14 @@ struct PhotometricPlaneStats {
 
 /// Refines `planes[k]` for every k with has_plane[k] ≠ 0 against the rectified pair `left_grey`,
 /// `right_grey` (CV_8UC1, same size); `labels` holds the cell index of each pixel (row-major,
-/// width × height of the images). Throws InputError on mismatched sizes or types.
+/// width × height of the images). The settings are ExtractionConfig's photometric_* fields;
+/// photometric_iterations = 0 leaves every plane as it is. A cell with fewer than
+/// kMinPhotometricSamples textured samples keeps its plane. Throws InputError on mismatched sizes
+/// or types.
 PhotometricPlaneStats refine_planes_photometric(const cv::Mat& left_grey, const cv::Mat& right_grey,
                                                 std::span<const std::int32_t> labels,
                                                 std::span<DisparityPlane> planes,
                                                 std::span<const std::uint8_t> has_plane,
-                                                const PhotometricPlaneConfig& config);
+                                                const ExtractionConfig& config);
 
 }  // namespace planecell::extraction

@@ -108,12 +108,12 @@ int run_extract(const ExtractOptions& o, const CommandContext& ctx) {
                 "  \"triangles\": %zu,\n  \"dense_coverage\": %.4f,\n"
                 "  \"disparity_source\": \"%s\",\n  \"image\": [%d, %d],\n"
                 "  \"timings_ms\": {\"disparity\": %.2f, \"superpixels\": %.2f, \"planes\": %.2f, "
-                "\"boundary_update\": %.2f, \"vertices\": %.2f, \"extraction_total\": %.2f}\n}\n",
+                "\"boundary_update\": %.2f, \"photometric\": %.2f, \"vertices\": %.2f, \"extraction_total\": %.2f}\n}\n",
                 frame.cells.size(), config.extraction.target_cells, frame.plane_fraction,
                 1.0 - frame.plane_fraction, compact.size(), triangles,
                 static_cast<double>(dense_valid) / (left.cols * left.rows), source.c_str(),
                 left.cols, left.rows, disparity_ms, t.superpixels_ms, t.planes_ms,
-                t.boundary_update_ms, t.vertices_ms, t.total_ms);
+                t.boundary_update_ms, t.photometric_ms, t.vertices_ms, t.total_ms);
   write_text(out / "cells.json", json);
   spdlog::info("extract: {} cells ({:.1f} % with a plane), {} B compact, {:.1f} ms -> {}",
                frame.cells.size(), 100.0 * frame.plane_fraction, compact.size(), t.total_ms,

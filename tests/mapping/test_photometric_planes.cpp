@@ -50,6 +50,13 @@ StreetFrame street_frame() {
   return f;
 }
 
+/// The extraction defaults with the photometric refinement on (5 steps per cell).
+ExtractionConfig photometric_on() {
+  ExtractionConfig config;
+  config.photometric_iterations = 5;
+  return config;
+}
+
 /// Least-squares disparity plane through the GT disparity of the pixels with label 0.
 DisparityPlane fit_truth(const cv::Mat& disparity, const std::vector<std::int32_t>& labels) {
   Eigen::Matrix3d a = Eigen::Matrix3d::Zero();
@@ -80,7 +87,7 @@ TEST(PhotometricPlanes, RecoversTheRoadPlaneFromAStartOffByMoreThanAPixel) {
   std::vector<DisparityPlane> planes{{truth.a, truth.b + 0.01, truth.c + 1.2 - 0.01 * (h - 25)}};
   const std::vector<std::uint8_t> has_plane{1};
   const auto stats = refine_planes_photometric(f.left_grey, f.right_grey, labels, planes, has_plane,
-                                               PhotometricPlaneConfig{});
+                                               photometric_on());
   EXPECT_EQ(stats.refined, 1);
   double worst = 0.0;
   for (int v = h - 40; v < h - 10; ++v)
@@ -96,7 +103,7 @@ TEST(PhotometricPlanes, KeepsThePlaneOfATexturelessCell) {
   const DisparityPlane fitted{0.01, 0.2, 5.0};
   std::vector<DisparityPlane> planes{fitted};
   const std::vector<std::uint8_t> has_plane{1};
-  const auto stats = refine_planes_photometric(flat, flat, labels, planes, has_plane, PhotometricPlaneConfig{});
+  const auto stats = refine_planes_photometric(flat, flat, labels, planes, has_plane, photometric_on());
   EXPECT_EQ(stats.refined, 0);
   EXPECT_EQ(stats.kept, 1);
   EXPECT_EQ(planes[0].a, fitted.a);
@@ -110,12 +117,12 @@ TEST(PhotometricPlanes, RefusesImagesOfDifferentSizesAndALabelImageThatDoesNotFi
   const std::vector<std::uint8_t> has_plane{1};
   std::vector<std::int32_t> labels(60 * 80, 0);
   EXPECT_CONTAINS(test::input_error_of([&] {
-                    refine_planes_photometric(a, b, labels, planes, has_plane, PhotometricPlaneConfig{});
+                    refine_planes_photometric(a, b, labels, planes, has_plane, photometric_on());
                   }),
                   "one size");
   labels.resize(10);
   EXPECT_CONTAINS(test::input_error_of([&] {
-                    refine_planes_photometric(a, a, labels, planes, has_plane, PhotometricPlaneConfig{});
+                    refine_planes_photometric(a, a, labels, planes, has_plane, photometric_on());
                   }),
                   "label image");
 }
