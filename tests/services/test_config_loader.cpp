@@ -1,6 +1,7 @@
 /// services/config_loader: YAML over defaults, with clear errors for unknown or mistyped keys.
 #include <gtest/gtest.h>
 
+#include <filesystem>
 #include <fstream>
 
 #include "core/error.hpp"
@@ -91,6 +92,17 @@ TEST(ConfigLoader, LoadsAFileAndNamesAMissingOne) {
   } catch (const ConfigError& e) {
     EXPECT_NE(std::string(e.what()).find("absent.yaml"), std::string::npos) << e.what();
   }
+}
+
+/// The presets shipped in config/ load without an unknown or mistyped key, and they say what
+/// their comments promise: the photometric planes are on for rendered frames only.
+TEST(ConfigLoader, ShippedPresetsLoad) {
+  const std::filesystem::path dir = std::filesystem::path(PLANECELL_SOURCE_DIR) / "config";
+  for (const char* name : {"euroc.yaml", "kitti.yaml", "middlebury.yaml", "synthetic.yaml"})
+    EXPECT_NO_THROW(load_config(dir / name)) << name;
+  EXPECT_EQ(load_config(dir / "synthetic.yaml").extraction.photometric_iterations, 5);
+  EXPECT_EQ(load_config(dir / "kitti.yaml").extraction.photometric_iterations, 0);
+  EXPECT_FALSE(load_config(dir / "synthetic.yaml").refine.enabled);
 }
 
 }  // namespace
