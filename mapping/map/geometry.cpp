@@ -7,6 +7,8 @@
 #include <limits>
 #include <optional>
 
+#include <boost/container/small_vector.hpp>
+
 namespace planecell::map {
 
 namespace bg = boost::geometry;
@@ -120,35 +122,42 @@ double polygon_gap_m(const Plane3& plane_a, std::span<const Eigen::Vector3f> a,
   return best;
 }
 
-bool polygons_within_m(const Plane3& plane_a, std::span<const Eigen::Vector3f> a,
-                       const Plane3& plane_b, std::span<const Eigen::Vector3f> b, double max_m) {
+bool polygons_within_m(const Plane3& plane_a, std::span<const Eigen::Vector3f> a, const Aabb& box_a,
+                       const Plane3& plane_b, std::span<const Eigen::Vector3f> b, const Aabb& box_b,
+                       double max_m) {
   if (a.size() < 3 || b.size() < 3) return false;
-  /// Is some vertex of `from` within max_m of the polygon `to` (on `plane`)?
+  /// Is some vertex of `from` within max_m of the polygon `to` (on `plane`, bounds `box`)?
   auto any_vertex_within = [max_m](std::span<const Eigen::Vector3f> from, const Plane3& plane,
-                                   std::span<const Eigen::Vector3f> to) {
-    const Aabb box = bounds_of(to);
-    std::optional<std::pair<PlaneBasis, Polygon2>> outline;  // built for the first vertex that needs it
+                                   std::span<const Eigen::Vector3f> to, const Aabb& box) {
+    // to's outline in a basis of its plane, built for the first vertex that needs it (on the stack
+    // for the usual few vertices).
+    std::optional<PlaneBasis> basis;
+    boost::container::small_vector<Eigen::Vector2d, 16> outline;
     for (const auto& vf : from) {
       const Eigen::Vector3d v = vf.cast<double>();
       const Eigen::Vector3d outside =
           (box.min - v).cwiseMax(v - box.max).cwiseMax(Eigen::Vector3d::Zero());
       if (outside.norm() > max_m || std::abs(plane.signed_distance(v)) > max_m) continue;
       // The polygon's distance is min(edge distances), or |plane distance| (≤ max_m, checked above)
-      // when v projects inside it: within max_m iff an edge is, or v projects inside.
+      // when v projects inside it: within max_m iff an edge is, or v projects inside. A projection
+      // on the outline is within an edge's reach already, so the even-odd test decides the rest.
       for (std::size_t k = 0; k < to.size(); ++k)
         if (point_segment_distance(v, to[k].cast<double>(), to[(k + 1) % to.size()].cast<double>()) <= max_m)
           return true;
-      if (!outline) {
-        PlaneBasis basis = make_basis(plane, to[0].cast<double>());
-        Polygon2 poly = to_polygon2(to, basis);
-        outline.emplace(std::move(basis), std::move(poly));
+      if (!basis) {
+        basis = make_basis(plane, to[0].cast<double>());
+        for (const auto& w : to) outline.push_back(basis->to_2d(w.cast<double>()));
       }
-      const Eigen::Vector2d st = outline->first.to_2d(v);
-      if (bg::covered_by(Point2(st.x(), st.y()), outline->second)) return true;
+      if (point_in_ring({outline.data(), outline.size()}, basis->to_2d(v))) return true;
     }
     return false;
   };
-  return any_vertex_within(a, plane_b, b) || any_vertex_within(b, plane_a, a);
+  return any_vertex_within(a, plane_b, b, box_b) || any_vertex_within(b, plane_a, a, box_a);
+}
+
+bool polygons_within_m(const Plane3& plane_a, std::span<const Eigen::Vector3f> a,
+                       const Plane3& plane_b, std::span<const Eigen::Vector3f> b, double max_m) {
+  return polygons_within_m(plane_a, a, bounds_of(a), plane_b, b, bounds_of(b), max_m);
 }
 
 }  // namespace planecell::map

@@ -104,6 +104,10 @@ double polygon_gap_m(const Plane3& plane_a, std::span<const Eigen::Vector3f> a,
 /// first vertex within max_m.
 bool polygons_within_m(const Plane3& plane_a, std::span<const Eigen::Vector3f> a,
                        const Plane3& plane_b, std::span<const Eigen::Vector3f> b, double max_m);
+/// The same with the polygons' bounds given (box_a = bounds_of(a), box_b = bounds_of(b)).
+bool polygons_within_m(const Plane3& plane_a, std::span<const Eigen::Vector3f> a, const Aabb& box_a,
+                       const Plane3& plane_b, std::span<const Eigen::Vector3f> b, const Aabb& box_b,
+                       double max_m);
 
 /// Distance (m) of a point to the segment [a, b].
 double point_segment_distance(const Eigen::Vector3d& p, const Eigen::Vector3d& a,

@@ -228,8 +228,8 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
       for (std::uint32_t j : frame_index.query(fresh_box[k].inflated(gap), box_of)) {
         if (j <= k) continue;
         // Within the gap (polygons_within_m: early exit), not the whole polygon_gap_m.
-        if (!polygons_within_m(fresh[k]->plane, fresh[k]->vertices_m, fresh[j]->plane,
-                               fresh[j]->vertices_m, gap))
+        if (!polygons_within_m(fresh[k]->plane, fresh[k]->vertices_m, fresh_box[k], fresh[j]->plane,
+                               fresh[j]->vertices_m, fresh_box[j], gap))
           continue;
         edges.push_back({static_cast<std::uint32_t>(k), j,
                          std::sqrt(std::min(fresh_area[k], fresh_area[j]))});
@@ -274,7 +274,7 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
       if (max_age > 0 && old.frame_id + max_age <= frame_id && surface.observations == 1)
         unconfirmed.insert(old.surface);
       const bool neighbour = near_box.overlaps(old_box) &&
-                             polygons_within_m(cell.plane, cell.vertices_m, old.plane, old.vertices_m, gap);
+                             polygons_within_m(cell.plane, cell.vertices_m, box, old.plane, old.vertices_m, old_box, gap);
       if (neighbour) {
         auto [it, inserted] = unit_of_map_cell.try_emplace(id, static_cast<std::uint32_t>(units.size()));
         if (inserted) {
@@ -298,7 +298,7 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
       const double angle_deg =
           std::min(2.0 * base_deg, base_deg + std::atan(noise / std::sqrt(fresh_area[k])) * 180.0 / M_PI);
       if (nearly_coplanar(cell, old, angle_deg, tol) &&
-          (neighbour || polygons_within_m(cell.plane, cell.vertices_m, old.plane, old.vertices_m, tol)))
+          (neighbour || polygons_within_m(cell.plane, cell.vertices_m, box, old.plane, old.vertices_m, old_box, tol)))
         (less_precise ? superseded[k] : covering[k]).push_back(&old);
       // The surface of a nearby cell covers the cell where its footprint (every observation
       // fused into it, stored or not) holds the cell's points, when its plane passes within the
