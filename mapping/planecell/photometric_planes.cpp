@@ -1,9 +1,9 @@
 #include "mapping/planecell/photometric_planes.hpp"
 
 #include <algorithm>
-#include <array>
 #include <cmath>
 #include <string>
+#include <vector>
 
 #include <Eigen/Dense>
 #include <ceres/tiny_solver.h>
@@ -41,6 +41,17 @@ struct PhotometricResiduals {
 
   int NumResiduals() const { return static_cast<int>(samples.size()); }
 
+  /// r̃ of a raw residual r, and dr̃/dr in `scale`.
+  double robustified(double r, double& scale) const {
+    if (std::abs(r) <= huber_k) {
+      scale = 1.0;
+      return r;
+    }
+    const double rooted = std::sqrt(2.0 * huber_k * std::abs(r) - huber_k * huber_k);
+    scale = huber_k / rooted;
+    return std::copysign(rooted, r);
+  }
+
   /// The raw residual r of sample `s` at `x`, with ∂I_R/∂u and I_R at its match; false when the
   /// match falls outside the right image.
   bool raw_residual(const Sample& s, const double* x, double& r, double& slope, double& right_value) const {
@@ -66,13 +77,7 @@ struct PhotometricResiduals {
         continue;
       }
       double scale = 1.0;  // dr̃/dr
-      if (std::abs(r) <= huber_k) {
-        residuals[i] = r;
-      } else {
-        const double rooted = std::sqrt(2.0 * huber_k * std::abs(r) - huber_k * huber_k);
-        residuals[i] = std::copysign(rooted, r);
-        scale = huber_k / rooted;
-      }
+      residuals[i] = robustified(r, scale);
       if (jacobian) {
         const double du = s.u - u_mean, dv = s.v - v_mean;
         jacobian[i] = scale * x[4] * slope * du;
@@ -95,12 +100,19 @@ struct PhotometricResiduals {
     return n;
   }
 
-  /// Σ ρ(r_p) at `x` (= ½Σ r̃²).
-  double cost(const double* x, std::vector<double>& residuals) const {
-    residuals.resize(samples.size());
-    (*this)(x, residuals.data(), nullptr);
-    double sum = 0.0;
-    for (double r : residuals) sum += 0.5 * r * r;
+  /// Σ ρ(r_p) at `x` (= ½Σ r̃², as TinySolver sees it); `used_samples`, when given, receives
+  /// used(x), counted in the same pass.
+  double cost(const double* x, int* used_samples = nullptr) const {
+    double sum = 0.0, r = 0.0, slope = 0.0, right_value = 0.0;
+    int n = 0;
+    for (const Sample& s : samples) {
+      if (!raw_residual(s, x, r, slope, right_value)) continue;
+      ++n;
+      double scale = 1.0;
+      const double rr = robustified(r, scale);
+      sum += 0.5 * rr * rr;
+    }
+    if (used_samples) *used_samples = n;
     return sum;
   }
 };
@@ -129,37 +141,36 @@ PhotometricPlaneStats refine_planes_photometric(const cv::Mat& left_grey, const 
   cv::GaussianBlur(left, left, cv::Size(3, 3), 0.0);
   cv::GaussianBlur(right, right, cv::Size(3, 3), 0.0);
 
-  // Textured samples per cell, grouped by cell (counting pass, then fill).
+  // Textured samples per cell, grouped by cell: one pass over the sampling grid, then a counting
+  // sort by cell.
   const std::size_t n_cells = planes.size();
+  std::vector<Sample> unsorted;
+  std::vector<std::int32_t> cell_of;
+  const std::size_t grid = static_cast<std::size_t>((height + step - 1) / step) * ((width + step - 1) / step);
+  unsorted.reserve(grid);
+  cell_of.reserve(grid);
   std::vector<std::int32_t> first(n_cells + 1, 0);
-  auto textured = [&](int u, int v) {
-    if (u < 1 || u >= width - 1) return false;
-    const float* row = left.ptr<float>(v);
-    return std::abs(0.5f * (row[u + 1] - row[u - 1])) >= config.photometric_min_gradient;
-  };
-  for (int v = 0; v < height; v += step)
-    for (int u = 0; u < width; u += step) {
-      const std::int32_t l = labels[static_cast<std::size_t>(v) * width + u];
-      if (l >= 0 && static_cast<std::size_t>(l) < n_cells && has_plane[l] && textured(u, v)) ++first[l + 1];
-    }
-  for (std::size_t k = 0; k < n_cells; ++k) first[k + 1] += first[k];
-  std::vector<Sample> samples(static_cast<std::size_t>(first[n_cells]));
-  std::vector<std::int32_t> fill(first.begin(), first.end() - 1);
   for (int v = 0; v < height; v += step) {
     const float* row = left.ptr<float>(v);
-    for (int u = 0; u < width; u += step) {
+    for (int u = step; u < width - 1; u += step) {  // u = 0 has no central gradient
       const std::int32_t l = labels[static_cast<std::size_t>(v) * width + u];
-      if (l >= 0 && static_cast<std::size_t>(l) < n_cells && has_plane[l] && textured(u, v))
-        samples[fill[l]++] = {static_cast<float>(u), static_cast<float>(v), row[u]};
+      if (l < 0 || static_cast<std::size_t>(l) >= n_cells || !has_plane[l]) continue;
+      if (!(std::abs(0.5f * (row[u + 1] - row[u - 1])) >= config.photometric_min_gradient)) continue;
+      unsorted.push_back({static_cast<float>(u), static_cast<float>(v), row[u]});
+      cell_of.push_back(l);
+      ++first[l + 1];
     }
   }
+  for (std::size_t k = 0; k < n_cells; ++k) first[k + 1] += first[k];
+  std::vector<Sample> samples(unsorted.size());
+  std::vector<std::int32_t> fill(first.begin(), first.end() - 1);
+  for (std::size_t i = 0; i < unsorted.size(); ++i) samples[fill[cell_of[i]]++] = unsorted[i];
 
   // One small problem per cell (5 parameters, many residuals): ceres::TinySolver's
   // Levenberg–Marquardt on the 5×5 normal equations, without a ceres::Problem's set-up per cell.
   using Solver = ceres::TinySolver<PhotometricResiduals>;
   Solver solver;
   solver.options.max_num_iterations = config.photometric_iterations;
-  std::vector<double> residuals;
   for (std::size_t k = 0; k < n_cells; ++k) {
     if (!has_plane[k]) continue;
     const std::span<const Sample> cell(samples.data() + first[k], samples.data() + first[k + 1]);
@@ -184,15 +195,15 @@ PhotometricPlaneStats refine_planes_photometric(const cv::Mat& left_grey, const 
     }
     x[3] = offset / used0;
     const Solver::Parameters start = x;
-    const double cost0 = problem.cost(x.data(), residuals);
+    const double cost0 = problem.cost(x.data());
     solver.Solve(problem, &x);
-    const double cost1 = problem.cost(x.data(), residuals);
-    const Solver::Parameters& best = x;
-    const double best_cost = problem.used(x.data()) == used0 ? cost1 : cost0;  // else not comparable
+    int used1 = 0;
+    const double cost1 = problem.cost(x.data(), &used1);
+    const double best_cost = used1 == used0 ? cost1 : cost0;  // other samples: not comparable
     // Largest disparity change over the samples (linear in u, v: attained at an extreme sample).
     double shift = 0.0;
-    const Eigen::Vector3d change(best[0] - start[0], best[1] - start[1], best[2] - start[2]);
-    if (!(best[4] > 0.5 && best[4] < 2.0)) shift = 1e9;  // a gain this far off is not a match
+    const Eigen::Vector3d change(x[0] - start[0], x[1] - start[1], x[2] - start[2]);
+    if (!(x[4] > 0.5 && x[4] < 2.0)) shift = 1e9;  // a gain this far off is not a match
     for (const Sample& sample : cell)
       shift = std::max(shift, std::abs(change[0] * (sample.u - u_mean) + change[1] * (sample.v - v_mean) + change[2]));
     if (!(best_cost < config.photometric_min_cost_ratio * cost0) || shift > config.photometric_max_shift_px) {
@@ -200,9 +211,9 @@ PhotometricPlaneStats refine_planes_photometric(const cv::Mat& left_grey, const 
       continue;
     }
     DisparityPlane& plane = planes[k];
-    plane.a = best[0];
-    plane.b = best[1];
-    plane.c = best[2] - best[0] * u_mean - best[1] * v_mean;
+    plane.a = x[0];
+    plane.b = x[1];
+    plane.c = x[2] - x[0] * u_mean - x[1] * v_mean;
     ++stats.refined;
   }
   return stats;
