@@ -33,10 +33,10 @@ struct ExtractionConfig {
   int random_seed = 1;         ///< RANSAC sampling seed (results are deterministic)
   /// Photometric refinement of each plane against the stereo pair (extraction/photometric_planes;
   /// only where the right image is passed): Levenberg–Marquardt steps per cell, 0 = off. Off by
-  /// default: it removes SGM's slant bias from the synthetic street's road (bottom rows −1.4 →
-  /// −0.1 px) and lowers the pose refinement's drift on most streets, but costs ~8 ms per
-  /// 1242×375 frame and raised bad-2 by 0.06–0.25 points on the KITTI and Middlebury samples
-  /// (docs/PERFORMANCE.md, "Photometric planes").
+  /// default (config/synthetic.yaml sets 5): it removes SGM's slant bias from the synthetic
+  /// street's road (bottom rows −1.4 → −0.1 px) and lowers the pose refinement's drift on most
+  /// streets, but costs ~8 ms per 1242×375 frame and raised bad-2 by 0.06–0.25 points on the KITTI
+  /// and Middlebury samples (docs/PERFORMANCE.md, "Photometric planes").
   int photometric_iterations = 0;
   int photometric_sample_step = 2;           ///< every n-th pixel in u and v
   double photometric_min_gradient = 0.5;     ///< textured samples only (grey levels / px along u)
