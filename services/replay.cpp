@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <chrono>
 #include <memory>
+#include <unordered_map>
 #include <set>
 #include <sstream>
 #include <thread>
@@ -146,7 +147,11 @@ ReplayReport run_replay(const ReplayOptions& options, const AppConfig& config) {
     const std::filesystem::path scene = sequence.root / "scene.yaml";
     if (std::filesystem::exists(scene)) {
       try {
-        merge_evaluator->set_gt_planes(eval::coplanar_groups(io::read_scene_surfaces(scene)));
+        const auto surfaces = io::read_scene_surfaces(scene);
+        merge_evaluator->set_gt_planes(eval::coplanar_groups(surfaces));
+        std::unordered_map<std::uint16_t, Plane3> planes;
+        for (const auto& surface : surfaces) planes.emplace(surface.id, surface.plane);
+        merge_evaluator->set_gt_surface_planes(std::move(planes));
       } catch (const InputError& e) {
         spdlog::warn("replay: {}; cross-merging is counted per GT surface only", e.what());
       }
@@ -335,6 +340,11 @@ nlohmann::json to_json(const ReplayReport& r) {
         {"labels", m.labels}, {"area_in_dominant_label", m.area_in_dominant_label},
         {"area_one_label", m.area_one_label}, {"cross_merged_cells", m.cross_merged_cells},
         {"cross_merged_cells_between_planes", m.cross_merged_cells_between_planes}};
+    if (m.plane_error_cells > 0)
+      out["cell_planes_vs_ground_truth"] = {
+          {"cells", m.plane_error_cells}, {"rms_distance_median_m", m.plane_error_median_m},
+          {"rms_distance_p90_m", m.plane_error_p90_m}, {"depth_sigma_median_m", m.depth_sigma_median_m},
+          {"rms_distance_over_depth_sigma_median", m.plane_error_over_sigma_median}};
   }
   if (r.voxel) {
     out["voxel"] = {{"mode", r.voxel_mode}, {"voxel_bytes", r.voxel_bytes},
@@ -370,6 +380,13 @@ std::string summary_text(const ReplayReport& r) {
         << " % of cells merged across GT surfaces, " << 100.0 * m.cross_merged_cells_between_planes
         << " % across GT planes (" << m.gt_surfaces << " GT surfaces -> " << m.labels
         << " labels, " << m.cells << " cells, " << m.mixed_cells << " mixed cells left out)\n";
+    if (m.plane_error_cells > 0) {
+      out.precision(3);
+      out << "  cell planes vs GT planes: RMS vertex distance median " << m.plane_error_median_m << " m, p90 "
+          << m.plane_error_p90_m << " m; modelled depth noise sigma_Z median " << m.depth_sigma_median_m
+          << " m (distance / sigma_Z median " << m.plane_error_over_sigma_median << ")\n";
+      out.precision(1);
+    }
   }
   if (r.merge_ms.size() >= 20) {
     // Median merge time of the first and the last tenth of the frames: flat as the map grows?

@@ -46,6 +46,15 @@ void MergeEvaluator::add_frame(const cv::Mat& labels, const cv::Mat& gt_surface_
     }
     samples_.push_back({best->first, static_cast<float>(map::polygon_area_m2(cells_world[i].vertices_m)),
                         report.cell_surfaces[i]});
+    if (const auto plane = gt_planes_.find(best->first); plane != gt_planes_.end() && !cells_world[i].vertices_m.empty()) {
+      double sum_sq = 0.0;
+      for (const Eigen::Vector3f& v : cells_world[i].vertices_m) {
+        const double d = plane->second.signed_distance(v.cast<double>());
+        sum_sq += d * d;
+      }
+      plane_errors_m_.push_back(static_cast<float>(std::sqrt(sum_sq / static_cast<double>(cells_world[i].vertices_m.size()))));
+      depth_sigmas_m_.push_back(cells_world[i].depth_sigma_m);
+    }
   }
   for (const auto& merge : report.surface_merges) merged_into_[merge.absorbed] = merge.into;
   pruned_.insert(report.pruned_surfaces.begin(), report.pruned_surfaces.end());
@@ -57,8 +66,28 @@ std::uint32_t MergeEvaluator::final_label(std::uint32_t label) const {
   return label;
 }
 
+namespace {
+
+/// sorted(values)[⌊q·(n−1)⌋] (lower nearest rank); 0 for no values.
+double lower_quantile(std::vector<float> values, double q) {
+  if (values.empty()) return 0.0;
+  const auto k = static_cast<std::size_t>(std::floor(q * static_cast<double>(values.size() - 1)));
+  std::nth_element(values.begin(), values.begin() + static_cast<std::ptrdiff_t>(k), values.end());
+  return values[k];
+}
+
+}  // namespace
+
 MergeMetrics MergeEvaluator::finish() const {
   MergeMetrics m;
+  m.plane_error_cells = plane_errors_m_.size();
+  m.plane_error_median_m = lower_quantile(plane_errors_m_, 0.5);
+  m.plane_error_p90_m = lower_quantile(plane_errors_m_, 0.9);
+  m.depth_sigma_median_m = lower_quantile(depth_sigmas_m_, 0.5);
+  std::vector<float> ratios;
+  for (std::size_t i = 0; i < plane_errors_m_.size(); ++i)
+    if (depth_sigmas_m_[i] > 0.0f) ratios.push_back(plane_errors_m_[i] / depth_sigmas_m_[i]);
+  m.plane_error_over_sigma_median = lower_quantile(std::move(ratios), 0.5);
   m.mixed_cells = mixed_;
   std::map<std::uint16_t, std::map<std::uint32_t, double>> gt_label_area;
   std::map<std::uint32_t, std::map<std::uint16_t, double>> label_gt_area;

@@ -9,6 +9,7 @@
 #include <unordered_set>
 #include <vector>
 
+#include "core/plane.hpp"
 #include "core/planecell.hpp"
 #include "io/synthetic/synthetic_world.hpp"
 #include "mapping/map/global_map.hpp"
@@ -33,6 +34,21 @@ struct MergeMetrics {
   /// plane several ids (the road of each leg, flush facades of neighbouring buildings), and
   /// merging those is what the CRF is for. Equals cross_merged_cells without planes.
   double cross_merged_cells_between_planes = 0.0;
+  // --- the cells' planes against their GT surface's plane (MergeEvaluator::set_gt_surface_planes) --
+  /// Cells measured: pure cells (as above, those of later pruned surfaces included) whose GT
+  /// surface has a known plane; 0 = no GT planes.
+  std::size_t plane_error_cells = 0;
+  /// Each cell's plane error ε = √((1/K) Σ_k (n_g·v_k + e_g)²), the RMS distance of its K world
+  /// vertices to its GT surface's plane n_g·X + e_g = 0 (m): median and 90th percentile
+  /// (lower nearest rank, sorted[⌊q·(n−1)⌋]) over the measured cells.
+  double plane_error_median_m = 0.0;
+  double plane_error_p90_m = 0.0;
+  /// Median of the same cells' modelled depth noise σ_Z (Planecell::depth_sigma_m), the noise the
+  /// merger widens its range by (MapConfig::depth_sigma_factor): set against the plane error, it
+  /// shows how far the model is from the cells' actual error.
+  double depth_sigma_median_m = 0.0;
+  /// Median of ε / σ_Z over the measured cells with σ_Z > 0.
+  double plane_error_over_sigma_median = 0.0;
 };
 
 /// GT plane groups of a synthetic scene: surfaces a and b share a group when their planes agree
@@ -61,6 +77,9 @@ class MergeEvaluator {
 
   /// GT surface id → GT plane group (coplanar_groups); ids missing from it are their own group.
   void set_gt_planes(std::unordered_map<std::uint16_t, std::uint16_t> groups) { groups_ = std::move(groups); }
+  /// GT surface id → its world-frame plane (the synthetic scene's): from then on add_frame also
+  /// measures each pure cell's plane error against its GT surface (MergeMetrics::plane_error_*).
+  void set_gt_surface_planes(std::unordered_map<std::uint16_t, Plane3> planes) { gt_planes_ = std::move(planes); }
 
  private:
   struct Sample {
@@ -75,6 +94,9 @@ class MergeEvaluator {
   std::unordered_map<std::uint32_t, std::uint32_t> merged_into_;  ///< absorbed → into
   std::unordered_set<std::uint32_t> pruned_;  ///< surfaces pruned as unconfirmed: not in the map
   std::unordered_map<std::uint16_t, std::uint16_t> groups_;  ///< GT id → GT plane group
+  std::unordered_map<std::uint16_t, Plane3> gt_planes_;     ///< GT id → world plane
+  std::vector<float> plane_errors_m_;  ///< ε of each measured cell
+  std::vector<float> depth_sigmas_m_;  ///< σ_Z of the same cells
 };
 
 }  // namespace planecell::services::eval

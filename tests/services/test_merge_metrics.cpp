@@ -172,5 +172,53 @@ TEST(MergeMetrics, MismatchedInputsAreClearErrors) {
   EXPECT_THROW(eval.add_frame(labels, gt, std::vector<Planecell>{square(0, 1.0f)}, report), InputError);
 }
 
+TEST(MergeMetrics, CellPlaneErrorIsTheRmsVertexDistanceToTheGtPlane) {
+  MergeEvaluator eval;
+  // GT 1: the plane z = 0 (n = +z, e = 0); GT 3 has no known plane and is not measured.
+  eval.set_gt_surface_planes({{1, Plane3{Eigen::Vector3d::UnitZ(), 0.0}}});
+  cv::Mat labels, gt;
+  halves(labels, gt, 0, 1, 1, 3);
+  for (int i = 0; i <= 10; ++i) {
+    Planecell lifted = square(0, 1.0f);  // on GT 1's plane, lifted by 1 cm · i
+    for (auto& v : lifted.vertices_m) v.z() = 0.01f * static_cast<float>(i);
+    lifted.depth_sigma_m = 0.1f + 0.01f * static_cast<float>(i);
+    Planecell other = square(1, 1.0f);
+    other.depth_sigma_m = 0.5f;
+    map::MergeReport report;
+    report.cell_surfaces = {10, 20};
+    eval.add_frame(labels, gt, std::vector<Planecell>{lifted, other}, report);
+  }
+  const MergeMetrics m = eval.finish();
+  EXPECT_EQ(m.cells, 22u);
+  ASSERT_EQ(m.plane_error_cells, 11u);
+  // Errors 0, 1, …, 10 cm: sorted[⌊0.5·10⌋] = 5 cm, sorted[⌊0.9·10⌋] = 9 cm.
+  EXPECT_NEAR(m.plane_error_median_m, 0.05, 1e-6);
+  EXPECT_NEAR(m.plane_error_p90_m, 0.09, 1e-6);
+  EXPECT_NEAR(m.depth_sigma_median_m, 0.15, 1e-6);
+  // ε/σ = 0.01 i / (0.1 + 0.01 i) grows with i: the median is i = 5's, 0.05 / 0.15.
+  EXPECT_NEAR(m.plane_error_over_sigma_median, 1.0 / 3.0, 1e-6);
+}
+
+TEST(MergeMetrics, TiltedCellPlaneErrorAndNoGtPlanesMeasureNothing) {
+  cv::Mat labels, gt;
+  halves(labels, gt, 0, 0, 2, 2);
+  // Corners alternately 20 cm above and below GT 2's plane z = 1 (n = −z, e = 1): RMS 0.2 m.
+  Planecell tilted = square(0, 1.0f);
+  for (std::size_t k = 0; k < tilted.vertices_m.size(); ++k) tilted.vertices_m[k].z() = k % 2 ? 0.8f : 1.2f;
+  map::MergeReport report;
+  report.cell_surfaces = {10};
+  MergeEvaluator eval;
+  eval.set_gt_surface_planes({{2, Plane3{-Eigen::Vector3d::UnitZ(), 1.0}}});
+  eval.add_frame(labels, gt, std::vector<Planecell>{tilted}, report);
+  const MergeMetrics m = eval.finish();
+  ASSERT_EQ(m.plane_error_cells, 1u);
+  EXPECT_NEAR(m.plane_error_median_m, 0.2, 1e-6);
+  EXPECT_NEAR(m.plane_error_p90_m, 0.2, 1e-6);
+  EXPECT_EQ(m.plane_error_over_sigma_median, 0.0);  // σ_Z unknown (0): no ratio
+  MergeEvaluator without_planes;
+  without_planes.add_frame(labels, gt, std::vector<Planecell>{tilted}, report);
+  EXPECT_EQ(without_planes.finish().plane_error_cells, 0u);
+}
+
 }  // namespace
 }  // namespace planecell::services::eval
