@@ -66,7 +66,10 @@ void add_replay_command(CLI::App& app, CommandContext& context) {
       "  planecell replay /tmp/street --gt-disparity             # the map from perfect stereo\n"
       "Report: frames, cells, surfaces, map bytes (RAM), store bytes, bytes per frame, voxel\n"
       "bytes/leaves (with --voxel), per-stage latency p50/p95/p99/max (ms), per-stage CPU ms and\n"
-      "page faults (stage_cost), RSS over frames (rss_mb) and peak RSS.");
+      "page faults (stage_cost), RSS over frames (rss_mb) and peak RSS. On a synthetic sequence\n"
+      "(GT surface ids, scene.yaml) also the merging against the GT surfaces\n"
+      "(merge_vs_ground_truth) and each cell's plane error against its GT surface's plane next\n"
+      "to the modelled depth noise (cell_planes_vs_ground_truth).");
   context.add(command, [args](const CommandContext& ctx) {
     AppConfig config = ctx.load_app_config();
     apply_heap_config(config.pipeline);  // per-frame buffers stay in the process (fewer faults)
