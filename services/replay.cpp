@@ -157,6 +157,12 @@ ReplayReport run_replay(const ReplayOptions& options, const AppConfig& config) {
       }
     }
   }
+  // Map completeness (sequences with GT disparity and their own pose file): GT points of every
+  // kCompletenessFrameStride-th frame, in the world by the GT pose, scored against the final map.
+  std::optional<std::vector<Pose>> completeness_poses;
+  std::vector<Eigen::Vector3d> completeness_points;
+  if (io::has_disparity_ground_truth(sequence))
+    if (auto truth = sequence_ground_truth(options.sequence_dir)) completeness_poses = std::move(truth->second);
   // Pose refinement (issue 9): on this thread here; threaded, in the pipeline's merge stage, whose
   // record is copied here once it has finished.
   std::optional<RefineStage> refinement;
@@ -174,6 +180,22 @@ ReplayReport run_replay(const ReplayOptions& options, const AppConfig& config) {
       const cv::Mat ids = io::load_surface_ids(sequence, work.frame_id, work.cells.labels.cols,
                                                work.cells.labels.rows);
       if (!ids.empty()) merge_evaluator->add_frame(work.cells.labels, ids, work.world_cells, work.merge);
+    }
+    if (completeness_poses && work.frame_id % kCompletenessFrameStride == 0 &&
+        work.frame_id < completeness_poses->size()) {
+      try {  // an unreadable GT file ends the score, not the replay
+        const cv::Mat gt = io::load_disparity_ground_truth(sequence, static_cast<std::size_t>(work.frame_id),
+                                                           sequence.camera.width, sequence.camera.height);
+        if (!gt.empty()) {
+          const auto points = eval::gt_points_world(gt, sequence.camera, (*completeness_poses)[work.frame_id],
+                                                    kCompletenessPixelStride, kCompletenessMaxDepthM);
+          completeness_points.insert(completeness_points.end(), points.begin(), points.end());
+        }
+      } catch (const InputError& e) {
+        spdlog::warn("replay: map completeness not scored: {}", e.what());
+        completeness_poses.reset();
+        completeness_points.clear();
+      }
     }
     ++report.frames;
     report.cells_extracted += work.cells.cells.size();
@@ -292,6 +314,7 @@ ReplayReport run_replay(const ReplayOptions& options, const AppConfig& config) {
     const auto metrics = merge_evaluator->finish();
     if (metrics.cells > 0) report.merge_metrics = metrics;  // none from --threads (labels dropped)
   }
+  if (!completeness_points.empty()) report.map_completeness = eval::map_completeness(global_map, completeness_points);
   if (refinement) {  // pose refinement (issue 9): ground truth = the sequence's own poses
     const auto truth = sequence_ground_truth(options.sequence_dir);
     report.refine = truth ? refinement->summary(truth->second, truth->first)
@@ -346,6 +369,13 @@ nlohmann::json to_json(const ReplayReport& r) {
           {"rms_distance_p90_m", m.plane_error_p90_m}, {"depth_sigma_median_m", m.depth_sigma_median_m},
           {"rms_distance_over_depth_sigma_median", m.plane_error_over_sigma_median}};
   }
+  if (r.map_completeness) {
+    const auto& c = *r.map_completeness;
+    out["map_vs_ground_truth"] = {
+        {"points", c.points}, {"frame_stride", kCompletenessFrameStride},
+        {"pixel_stride", kCompletenessPixelStride}, {"max_depth_m", kCompletenessMaxDepthM},
+        {"within_0_10_m", c.within[0]}, {"within_0_20_m", c.within[1]}, {"within_0_50_m", c.within[2]}};
+  }
   if (r.voxel) {
     out["voxel"] = {{"mode", r.voxel_mode}, {"voxel_bytes", r.voxel_bytes},
                     {"voxel_ot_bytes", r.voxel_ot_bytes}, {"voxel_bt_bytes", r.voxel_bt_bytes},
@@ -387,6 +417,12 @@ std::string summary_text(const ReplayReport& r) {
           << " m (distance / sigma_Z median " << m.plane_error_over_sigma_median << ")\n";
       out.precision(1);
     }
+  }
+  if (r.map_completeness) {
+    const auto& c = *r.map_completeness;
+    out << "  map vs GT points (every " << kCompletenessFrameStride << "th frame, depth <= " << kCompletenessMaxDepthM
+        << " m): " << 100.0 * c.within[0] << " / " << 100.0 * c.within[1] << " / " << 100.0 * c.within[2]
+        << " % within 10 / 20 / 50 cm of a stored planecell (" << c.points << " points)\n";
   }
   if (r.merge_ms.size() >= 20) {
     // Median merge time of the first and the last tenth of the frames: flat as the map grows?

@@ -3,6 +3,7 @@
 /// SGM → planecell extraction → pose transform → CRF merge into the global map → map store,
 /// with the OctoMap voxel baseline optionally fed the same frames.
 #include <cstddef>
+#include <cstdint>
 #include <filesystem>
 #include <functional>
 #include <limits>
@@ -12,6 +13,7 @@
 #include <vector>
 
 #include "core/config/app_config.hpp"
+#include "services/eval/map_completeness.hpp"
 #include "services/eval/merge_metrics.hpp"
 #include "services/latency_stats.hpp"
 #include "services/refine_stage.hpp"
@@ -62,6 +64,13 @@ struct MemorySample {
   std::size_t map_bytes = 0;  ///< GlobalMap::map_bytes after the last finished frame
 };
 
+/// Map completeness in replay: GT points of every kCompletenessFrameStride-th frame, on a grid of
+/// kCompletenessPixelStride px, at depths up to kCompletenessMaxDepthM (the default map range,
+/// fixed so that a shorter MapConfig::max_range_m shows as a smaller map, not a better one).
+inline constexpr std::uint64_t kCompletenessFrameStride = 10;
+inline constexpr int kCompletenessPixelStride = 8;
+inline constexpr double kCompletenessMaxDepthM = 20.0;
+
 struct ReplayReport {
   std::string sequence;
   std::size_t frames = 0;          ///< frames processed in this run
@@ -86,6 +95,9 @@ struct ReplayReport {
   std::string voxel_mode;          ///< "per-voxel update, no ray casting" or "insertPointCloud"
   /// Merging against the synthetic GT surface ids (sequences with surface_0/), this run's frames.
   std::optional<eval::MergeMetrics> merge_metrics;
+  /// The final map against GT points of every kCompletenessFrameStride-th frame of this run
+  /// (sequences with GT disparity and poses; see eval::map_completeness).
+  std::optional<eval::MapCompleteness> map_completeness;
   std::vector<std::pair<std::string, LatencySummary>> stage_latency;  ///< per stage, ms
                                                                       ///< (threaded: + end_to_end)
   /// Per stage: CPU time of the thread that ran it and first-touch page faults, per frame.

@@ -2,6 +2,8 @@
 /// store, resuming, and frame-range parsing.
 #include <gtest/gtest.h>
 
+#include <filesystem>
+#include <fstream>
 #include <opencv2/core.hpp>
 
 #include "core/error.hpp"
@@ -130,6 +132,21 @@ TEST_F(ReplayTest, GtDisparityReplacesSgmWithTheSequencesGroundTruth) {
   EXPECT_EQ(report.frames, 4u);
   EXPECT_EQ(frames_seen, 4u);
   EXPECT_GT(report.cells_in_map, 0u);
+  // Map completeness from frame 0's GT points (frame stride 10): exact disparity, exact poses.
+  ASSERT_TRUE(report.map_completeness.has_value());
+  EXPECT_GT(report.map_completeness->points, 0u);
+  const auto& held = report.map_completeness->within;
+  EXPECT_LE(held[0], held[1]);
+  EXPECT_LE(held[1], held[2]);
+  EXPECT_GT(held[0], 0.5);  // exact planes: most seen points lie on a stored cell
+  // A map cut to 5 m holds less of what the frames saw within the fixed 20 m: the score counts
+  // what the map leaves out, not only how well it fits what it keeps.
+  AppConfig short_range = config_;
+  short_range.map.max_range_m = 5.0;
+  const ReplayReport cut = run_replay(options, short_range);
+  ASSERT_TRUE(cut.map_completeness.has_value());
+  EXPECT_EQ(cut.map_completeness->points, report.map_completeness->points);
+  EXPECT_LT(cut.map_completeness->within[2], held[2] - 0.1);
 
   options.observe = nullptr;
   options.threads = true;
@@ -142,6 +159,21 @@ TEST_F(ReplayTest, GtDisparityReplacesSgmWithTheSequencesGroundTruth) {
   } catch (const InputError& e) {
     EXPECT_NE(std::string(e.what()).find("disp_occ_0"), std::string::npos) << e.what();
   }
+}
+
+TEST_F(ReplayTest, CorruptGtDisparityDropsTheCompletenessScoreNotTheMap) {
+  ReplayOptions options;
+  options.sequence_dir = scratch_ / "seq";
+  options.progress = false;
+  const ReplayReport scored = run_replay(options, config_);
+  ASSERT_TRUE(scored.map_completeness.has_value());
+  // Frame 0's GT disparity (the only one scored, every 10th frame) becomes garbage.
+  for (const auto& entry : std::filesystem::directory_iterator(scratch_ / "seq" / "disp_occ_0"))
+    if (entry.path().stem() == "000000") std::ofstream(entry.path(), std::ios::trunc) << "not a png";
+  const ReplayReport report = run_replay(options, config_);
+  EXPECT_EQ(report.frames, 4u);
+  EXPECT_EQ(report.cells_in_map, scored.cells_in_map);  // the same map
+  EXPECT_FALSE(report.map_completeness.has_value());
 }
 
 TEST(ReplayFrameRange, ParsesBoundsAndRejectsNonsense) {
