@@ -137,6 +137,8 @@ GlobalMap::GlobalMap(const MapConfig& config)
   (void)Footprint(config.footprint_resolution_m);  // validates the resolution (ConfigError)
   if (!(config.neighbour_gap_m >= 0.0))
     throw ConfigError("map.neighbour_gap_m: must be >= 0, got " + std::to_string(config.neighbour_gap_m));
+  if (!(config.bridge_gap_m >= 0.0))
+    throw ConfigError("map.bridge_gap_m: must be >= 0 (0 = off), got " + std::to_string(config.bridge_gap_m));
 }
 
 std::vector<std::uint32_t> GlobalMap::cells_near(const Aabb& box) const { return query_cells(box); }
@@ -463,6 +465,7 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
     surface.histogram = compact(state.histogram);
     surface.histogram_weight_m2 = state.histogram_weight_m2;
   }
+  if (config_.bridge_gap_m > 0.0) bridge_surfaces(fresh, fresh_input, camera_centre, touched, report);
   report.updated_surfaces.assign(touched.begin(), touched.end());
   std::sort(report.relabelled_cells.begin(), report.relabelled_cells.end());
   report.relabelled_cells.erase(std::unique(report.relabelled_cells.begin(), report.relabelled_cells.end()),
@@ -471,6 +474,91 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
   report.merge_ms =
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
   return report;
+}
+
+void GlobalMap::bridge_surfaces(std::span<const Planecell* const> fresh, std::span<const std::size_t> fresh_input,
+                                const Eigen::Vector3d& camera_centre, std::set<std::uint32_t>& touched,
+                                MergeReport& report) {
+  const auto mature = static_cast<std::uint32_t>(std::max(config_.mature_cells, 1));
+  const double bridge = config_.bridge_gap_m;
+  const double min_cos = std::cos(config_.max_normal_angle_deg * M_PI / 180.0);
+  // This frame's cells (stored or fused) by the surface they went to.
+  std::map<std::uint32_t, std::vector<std::size_t>> reached;
+  for (std::size_t k = 0; k < fresh.size(); ++k) {
+    const std::uint32_t s = report.cell_surfaces[fresh_input[k]];
+    if (surfaces_.contains(s)) reached[s].push_back(k);
+  }
+  // Hidden, not seen through: no stored cell of a third surface near the ray behind m.
+  const auto hidden_behind = [&](const Eigen::Vector3d& m, std::uint32_t a, std::uint32_t b) {
+    const Eigen::Vector3d ray = (m - camera_centre).normalized();
+    for (double t = 0.3; t <= 10.0; t += 0.25)
+      if (const auto hit = nearest_cell(m + t * ray, 0.2)) {
+        const std::uint32_t s = cells_.at(hit->cell_id).surface;
+        if (s != a && s != b) return false;
+      }
+    return true;
+  };
+  std::vector<std::uint32_t> nearby;
+  for (const auto& [reached_id, ks] : reached) {
+    std::uint32_t id = reached_id;  // follows the surface when a merge absorbs it
+    if (const auto it = surfaces_.find(id); it == surfaces_.end() || it->second.observations < mature) continue;
+    std::vector<Aabb> boxes;
+    Aabb all;
+    for (std::size_t k : ks) {
+      boxes.push_back(bounds_of(fresh[k]->vertices_m));
+      all.extend(boxes.back());
+    }
+    index_.candidates(all.inflated(bridge), nearby);
+    std::set<std::uint32_t> checked;  // other surfaces tested against this one
+    for (std::uint32_t cell_id : nearby) {
+      const auto cell_it = cells_.find(cell_id);
+      if (cell_it == cells_.end()) continue;
+      const MapCell& old = cell_it->second;
+      const std::uint32_t other_id = old.surface;
+      if (other_id == id || checked.contains(other_id)) continue;
+      const auto other_it = surfaces_.find(other_id);
+      if (other_it == surfaces_.end()) continue;
+      Surface& self = surfaces_.at(id);
+      Surface& other = other_it->second;
+      if (other.observations < mature || std::abs(other.plane.normal.dot(self.plane.normal)) < min_cos) {
+        checked.insert(other_id);
+        continue;
+      }
+      const Aabb old_box = bounds_of(old.vertices_m);
+      std::size_t w = 0;
+      while (w < ks.size() && !(boxes[w].inflated(bridge).overlaps(old_box) &&
+                                polygons_within_m(fresh[ks[w]]->plane, fresh[ks[w]]->vertices_m, boxes[w],
+                                                  old.plane, old.vertices_m, old_box, bridge)))
+        ++w;
+      if (w == ks.size()) continue;  // this stored cell is out of reach; another of its surface may not be
+      checked.insert(other_id);
+      const Planecell& cell = *fresh[ks[w]];
+      LabelState a = state_of_surface(self), b = state_of_surface(other);
+      const MergeUnit ua{id, &cell.plane, cell.vertices_m, nullptr, polygon_area_m2(cell.vertices_m)};
+      const MergeUnit ub{other_id, &old.plane, old.vertices_m, nullptr, polygon_area_m2(old.vertices_m)};
+      if (!merger_.evaluate(ua, a, ub, b, 0.0).in_range) continue;
+      if (!hidden_behind(0.5 * (vertex_centroid(cell.vertices_m) + vertex_centroid(old.vertices_m)), id, other_id))
+        continue;
+      // The older (smaller id) surface absorbs the newer, as in the CRF's union-find.
+      const bool self_older = id < other_id;
+      Surface& into = self_older ? self : other;
+      Surface& gone = self_older ? other : self;
+      LabelState& state = self_older ? a : b;
+      fold_label(state, self_older ? b : a);
+      const std::uint32_t into_id = into.id, gone_id = gone.id;
+      absorb_surface(into, gone, report);
+      into.plane = state.plane;
+      into.moments = state.moments;
+      into.histogram = compact(state.histogram);
+      into.histogram_weight_m2 = state.histogram_weight_m2;
+      surfaces_.erase(gone_id);
+      touched.erase(gone_id);
+      touched.insert(into_id);
+      report.removed_surfaces.push_back(gone_id);
+      report.surface_merges.push_back({report.frame_id, gone_id, into_id});
+      id = into_id;
+    }
+  }
 }
 
 std::size_t GlobalMap::map_bytes() const {

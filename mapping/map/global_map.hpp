@@ -7,6 +7,7 @@
 #include <map>
 #include <opencv2/core/mat.hpp>
 #include <optional>
+#include <set>
 #include <span>
 #include <unordered_map>
 #include <vector>
@@ -185,6 +186,12 @@ class GlobalMap {
   void prune_surface(std::uint32_t id, MergeReport& report);
   /// Folds `absorbed` into `into` (cells relabelled, footprint re-tiled in into's basis).
   void absorb_surface(Surface& into, Surface& absorbed, MergeReport& report);
+  /// MapConfig::bridge_gap_m: merges mature surfaces that this frame's cells (`fresh`, whose
+  /// surfaces report.cell_surfaces names at input index fresh_input[k]) reach across a hidden gap,
+  /// as events in `report`; `touched` follows the merges.
+  void bridge_surfaces(std::span<const Planecell* const> fresh, std::span<const std::size_t> fresh_input,
+                       const Eigen::Vector3d& camera_centre, std::set<std::uint32_t>& touched,
+                       MergeReport& report);
 
   MapConfig config_;
   Eigen::Vector3d up_;

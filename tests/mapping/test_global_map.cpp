@@ -381,5 +381,66 @@ TEST(Fusion, LoopedDriveSecondPassGrowsMapByLessThan15Percent) {
       << " B, " << map.cells().size() << " cells";
 }
 
+/// Bridging over an occlusion gap: a wall at z = 10 seen in two segments, x ∈ [−4, −2] (frame 0)
+/// and x ∈ [1, 3] (frame 1), each 2 × 2 tiles of 1 m (four observations: mature), 3 m apart.
+/// Optionally a back wall at z = 14 (colour bin 5) seen through the gap, and the second segment
+/// `step_m` nearer than the first.
+struct BridgeCase {
+  MapConfig config;
+  bool back_wall = false;
+  float step_m = 0.0f;
+  std::vector<MergeReport> run() const {
+    GlobalMap map(config);
+    std::vector<Planecell> first, second;
+    test::tile(first, {-4, 0, 10}, kX, kY, 2, 2, 1, 0, 0);
+    if (back_wall) test::tile(first, {-6, -1, 14}, kX, kY, 12, 4, 2, 0, 5);
+    test::tile(second, {1, 0, 10 - step_m}, kX, kY, 2, 2, 1, 0, 0);
+    std::vector<MergeReport> reports;
+    reports.push_back(map.integrate(0, Pose::Identity(), first));
+    reports.push_back(map.integrate(1, Pose::Identity(), second));
+    surfaces_after = map.surfaces().size();
+    return reports;
+  }
+  mutable std::size_t surfaces_after = 0;
+};
+
+TEST(Bridge, MatureSegmentsOfOnePlaneMergeAcrossAHiddenGap) {
+  BridgeCase c;
+  c.config.bridge_gap_m = 5.0;
+  const auto reports = c.run();
+  EXPECT_EQ(c.surfaces_after, 1u);
+  ASSERT_EQ(reports[1].surface_merges.size(), 1u);
+  // The older surface (frame 0's, the smaller id) absorbs the newer one.
+  EXPECT_LT(reports[1].surface_merges[0].into, reports[1].surface_merges[0].absorbed);
+  EXPECT_EQ(reports[1].removed_surfaces, std::vector<std::uint32_t>{reports[1].surface_merges[0].absorbed});
+}
+
+TEST(Bridge, NoMergeWhenOffOutOfReachSeenThroughOrNotOnOnePlane) {
+  BridgeCase off;  // bridge_gap_m = 0: the 3 m gap keeps them apart
+  off.run();
+  EXPECT_EQ(off.surfaces_after, 2u);
+  BridgeCase short_reach;
+  short_reach.config.bridge_gap_m = 2.5;  // the segments' cells are 3 m apart
+  short_reach.run();
+  EXPECT_EQ(short_reach.surfaces_after, 2u);
+  BridgeCase seen_through;  // the back wall shows through the gap: it is not hidden
+  seen_through.config.bridge_gap_m = 5.0;
+  seen_through.back_wall = true;
+  const auto reports = seen_through.run();
+  EXPECT_EQ(seen_through.surfaces_after, 3u);
+  EXPECT_TRUE(reports[1].surface_merges.empty());
+  BridgeCase stepped;  // 15 cm apart: a curb, not one plane (max_plane_distance_m 8 cm)
+  stepped.config.bridge_gap_m = 5.0;
+  stepped.step_m = 0.15f;
+  stepped.run();
+  EXPECT_EQ(stepped.surfaces_after, 2u);
+}
+
+TEST(Bridge, NegativeGapIsAConfigError) {
+  MapConfig config;
+  config.bridge_gap_m = -1.0;
+  EXPECT_THROW(GlobalMap{config}, ConfigError);
+}
+
 }  // namespace
 }  // namespace planecell::map
