@@ -98,11 +98,16 @@ TEST(ConfigLoader, LoadsAFileAndNamesAMissingOne) {
 /// their comments promise: the photometric planes are on for rendered frames only.
 TEST(ConfigLoader, ShippedPresetsLoad) {
   const std::filesystem::path dir = std::filesystem::path(PLANECELL_SOURCE_DIR) / "config";
-  for (const char* name : {"euroc.yaml", "kitti.yaml", "middlebury.yaml", "synthetic.yaml"})
+  for (const char* name : {"euroc.yaml", "kitti.yaml", "middlebury.yaml", "synthetic.yaml", "synthetic_refine.yaml"})
     EXPECT_NO_THROW(load_config(dir / name)) << name;
   EXPECT_EQ(load_config(dir / "synthetic.yaml").extraction.photometric_iterations, 5);
   EXPECT_EQ(load_config(dir / "kitti.yaml").extraction.photometric_iterations, 0);
   EXPECT_FALSE(load_config(dir / "synthetic.yaml").refine.enabled);
+  const AppConfig refine = load_config(dir / "synthetic_refine.yaml");
+  EXPECT_TRUE(refine.refine.enabled);
+  EXPECT_EQ(refine.extraction.photometric_iterations, 5);
+  EXPECT_EQ(refine.map.bridge_gap_m, 5.0);
+  EXPECT_EQ(load_config(dir / "synthetic.yaml").map.bridge_gap_m, 0.0);
 }
 
 }  // namespace
