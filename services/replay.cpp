@@ -157,12 +157,15 @@ ReplayReport run_replay(const ReplayOptions& options, const AppConfig& config) {
       }
     }
   }
+  // The sequence's own poses, read once: ground truth of the map completeness and of the
+  // refinement's trajectory metrics.
+  std::optional<std::pair<std::filesystem::path, std::vector<Pose>>> truth;
+  if (io::has_disparity_ground_truth(sequence) || config.refine.enabled)
+    truth = sequence_ground_truth(options.sequence_dir);
   // Map completeness (sequences with GT disparity and their own pose file): GT points of every
   // kCompletenessFrameStride-th frame, in the world by the GT pose, scored against the final map.
-  std::optional<std::vector<Pose>> completeness_poses;
+  bool score_completeness = truth && io::has_disparity_ground_truth(sequence);
   std::vector<Eigen::Vector3d> completeness_points;
-  if (io::has_disparity_ground_truth(sequence))
-    if (auto truth = sequence_ground_truth(options.sequence_dir)) completeness_poses = std::move(truth->second);
   // Pose refinement (issue 9): on this thread here; threaded, in the pipeline's merge stage, whose
   // record is copied here once it has finished.
   std::optional<RefineStage> refinement;
@@ -181,19 +184,21 @@ ReplayReport run_replay(const ReplayOptions& options, const AppConfig& config) {
                                                work.cells.labels.rows);
       if (!ids.empty()) merge_evaluator->add_frame(work.cells.labels, ids, work.world_cells, work.merge);
     }
-    if (completeness_poses && work.frame_id % kCompletenessFrameStride == 0 &&
-        work.frame_id < completeness_poses->size()) {
+    if (score_completeness && work.frame_id % kCompletenessFrameStride == 0 && work.frame_id < truth->second.size()) {
       try {  // an unreadable GT file ends the score, not the replay
-        const cv::Mat gt = io::load_disparity_ground_truth(sequence, static_cast<std::size_t>(work.frame_id),
-                                                           sequence.camera.width, sequence.camera.height);
+        // --gt-disparity: the frame was mapped from its GT disparity, already loaded.
+        const cv::Mat gt = options.gt_disparity
+                               ? work.disparity
+                               : io::load_disparity_ground_truth(sequence, static_cast<std::size_t>(work.frame_id),
+                                                                 sequence.camera.width, sequence.camera.height);
         if (!gt.empty()) {
-          const auto points = eval::gt_points_world(gt, sequence.camera, (*completeness_poses)[work.frame_id],
+          const auto points = eval::gt_points_world(gt, sequence.camera, truth->second[work.frame_id],
                                                     kCompletenessPixelStride, kCompletenessMaxDepthM);
           completeness_points.insert(completeness_points.end(), points.begin(), points.end());
         }
       } catch (const InputError& e) {
         spdlog::warn("replay: map completeness not scored: {}", e.what());
-        completeness_poses.reset();
+        score_completeness = false;
         completeness_points.clear();
       }
     }
@@ -316,7 +321,6 @@ ReplayReport run_replay(const ReplayOptions& options, const AppConfig& config) {
   }
   if (!completeness_points.empty()) report.map_completeness = eval::map_completeness(global_map, completeness_points);
   if (refinement) {  // pose refinement (issue 9): ground truth = the sequence's own poses
-    const auto truth = sequence_ground_truth(options.sequence_dir);
     report.refine = truth ? refinement->summary(truth->second, truth->first)
                           : refinement->summary({}, std::nullopt);
   }

@@ -143,7 +143,10 @@ GlobalMap::GlobalMap(const MapConfig& config)
 
 std::vector<std::uint32_t> GlobalMap::cells_near(const Aabb& box) const { return query_cells(box); }
 
-void GlobalMap::absorb_surface(Surface& into, Surface& absorbed, MergeReport& report) {
+void GlobalMap::absorb_surface(std::uint32_t into_id, std::uint32_t absorbed_id, std::set<std::uint32_t>& touched,
+                               MergeReport& report) {
+  Surface& into = surfaces_.at(into_id);
+  Surface& absorbed = surfaces_.at(absorbed_id);
   for (std::uint32_t id : absorbed.cells) {
     cells_.at(id).surface = into.id;
     into.cells.push_back(id);
@@ -162,6 +165,11 @@ void GlobalMap::absorb_surface(Surface& into, Surface& absorbed, MergeReport& re
   into.area_m2 = into.footprint.area_m2();
   into.bounds.extend(absorbed.bounds);
   into.observations += absorbed.observations;
+  surfaces_.erase(absorbed_id);
+  touched.erase(absorbed_id);
+  touched.insert(into_id);
+  report.removed_surfaces.push_back(absorbed_id);
+  report.surface_merges.push_back({report.frame_id, absorbed_id, into_id});
 }
 
 MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam,
@@ -324,14 +332,7 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
   std::set<std::uint32_t> touched;
   for (const auto& [absorbed, root] : merges) {
     if (absorbed >= next_surface_id_) continue;  // a fresh label joined a surface: not an event
-    Surface& into = surfaces_.at(root);
-    Surface& gone = surfaces_.at(absorbed);
-    absorb_surface(into, gone, report);
-    surfaces_.erase(absorbed);
-    touched.erase(absorbed);
-    touched.insert(root);
-    report.removed_surfaces.push_back(absorbed);
-    report.surface_merges.push_back({frame_id, absorbed, root});
+    absorb_surface(root, absorbed, touched, report);
   }
   for (const auto& [absorbed, root] : merges)
     if (root < next_surface_id_ && surfaces_.contains(root)) touched.insert(root);
@@ -502,13 +503,14 @@ void GlobalMap::bridge_surfaces(std::span<const Planecell* const> fresh, std::sp
   for (const auto& [reached_id, ks] : reached) {
     std::uint32_t id = reached_id;  // follows the surface when a merge absorbs it
     if (const auto it = surfaces_.find(id); it == surfaces_.end() || it->second.observations < mature) continue;
-    std::vector<Aabb> boxes;
+    std::vector<Aabb> boxes, reach;  // each reaching cell's bounds, and those inflated by the gap
     Aabb all;
     for (std::size_t k : ks) {
       boxes.push_back(bounds_of(fresh[k]->vertices_m));
-      all.extend(boxes.back());
+      reach.push_back(boxes.back().inflated(bridge));
+      all.extend(reach.back());
     }
-    index_.candidates(all.inflated(bridge), nearby);
+    index_.candidates(all, nearby);
     std::set<std::uint32_t> checked;  // other surfaces tested against this one
     for (std::uint32_t cell_id : nearby) {
       const auto cell_it = cells_.find(cell_id);
@@ -526,7 +528,7 @@ void GlobalMap::bridge_surfaces(std::span<const Planecell* const> fresh, std::sp
       }
       const Aabb old_box = bounds_of(old.vertices_m);
       std::size_t w = 0;
-      while (w < ks.size() && !(boxes[w].inflated(bridge).overlaps(old_box) &&
+      while (w < ks.size() && !(reach[w].overlaps(old_box) &&
                                 polygons_within_m(fresh[ks[w]]->plane, fresh[ks[w]]->vertices_m, boxes[w],
                                                   old.plane, old.vertices_m, old_box, bridge)))
         ++w;
@@ -540,22 +542,15 @@ void GlobalMap::bridge_surfaces(std::span<const Planecell* const> fresh, std::sp
       if (!hidden_behind(0.5 * (vertex_centroid(cell.vertices_m) + vertex_centroid(old.vertices_m)), id, other_id))
         continue;
       // The older (smaller id) surface absorbs the newer, as in the CRF's union-find.
-      const bool self_older = id < other_id;
-      Surface& into = self_older ? self : other;
-      Surface& gone = self_older ? other : self;
-      LabelState& state = self_older ? a : b;
-      fold_label(state, self_older ? b : a);
-      const std::uint32_t into_id = into.id, gone_id = gone.id;
-      absorb_surface(into, gone, report);
+      const std::uint32_t into_id = std::min(id, other_id), gone_id = std::max(id, other_id);
+      LabelState& state = into_id == id ? a : b;
+      fold_label(state, into_id == id ? b : a);
+      absorb_surface(into_id, gone_id, touched, report);
+      Surface& into = surfaces_.at(into_id);
       into.plane = state.plane;
       into.moments = state.moments;
       into.histogram = compact(state.histogram);
       into.histogram_weight_m2 = state.histogram_weight_m2;
-      surfaces_.erase(gone_id);
-      touched.erase(gone_id);
-      touched.insert(into_id);
-      report.removed_surfaces.push_back(gone_id);
-      report.surface_merges.push_back({report.frame_id, gone_id, into_id});
       id = into_id;
     }
   }

@@ -184,8 +184,12 @@ class GlobalMap {
   /// Removes surface `id` and its cells (index entries included), recording them in `report` as
   /// removed and pruned.
   void prune_surface(std::uint32_t id, MergeReport& report);
-  /// Folds `absorbed` into `into` (cells relabelled, footprint re-tiled in into's basis).
-  void absorb_surface(Surface& into, Surface& absorbed, MergeReport& report);
+  /// Folds surface `absorbed_id` into `into_id` (cells relabelled, footprint re-tiled in into's
+  /// basis, colour, areas, bounds, observations) and removes it: recorded in `report` as removed
+  /// and as a merge event, and in `touched`. The plane, moments and histogram are the caller's
+  /// (the merged label state).
+  void absorb_surface(std::uint32_t into_id, std::uint32_t absorbed_id, std::set<std::uint32_t>& touched,
+                      MergeReport& report);
   /// MapConfig::bridge_gap_m: merges mature surfaces that this frame's cells (`fresh`, whose
   /// surfaces report.cell_surfaces names at input index fresh_input[k]) reach across a hidden gap,
   /// as events in `report`; `touched` follows the merges.

@@ -47,12 +47,8 @@ void MergeEvaluator::add_frame(const cv::Mat& labels, const cv::Mat& gt_surface_
     samples_.push_back({best->first, static_cast<float>(map::polygon_area_m2(cells_world[i].vertices_m)),
                         report.cell_surfaces[i]});
     if (const auto plane = gt_planes_.find(best->first); plane != gt_planes_.end() && !cells_world[i].vertices_m.empty()) {
-      double sum_sq = 0.0;
-      for (const Eigen::Vector3f& v : cells_world[i].vertices_m) {
-        const double d = plane->second.signed_distance(v.cast<double>());
-        sum_sq += d * d;
-      }
-      plane_errors_m_.push_back(static_cast<float>(std::sqrt(sum_sq / static_cast<double>(cells_world[i].vertices_m.size()))));
+      // θ' with σ = 1 m: the RMS distance of the vertices to the GT plane, in metres.
+      plane_errors_m_.push_back(static_cast<float>(map::plane_residual(plane->second, cells_world[i].vertices_m, 1.0)));
       depth_sigmas_m_.push_back(cells_world[i].depth_sigma_m);
     }
   }
