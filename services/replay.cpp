@@ -180,9 +180,14 @@ ReplayReport run_replay(const ReplayOptions& options, const AppConfig& config) {
   // Per-frame bookkeeping, on the calling thread (single-threaded) or the publish thread.
   auto account = [&](const FrameWork& work) {
     if (merge_evaluator && !work.cells.labels.empty()) {  // the threaded pipeline drops labels early
-      const cv::Mat ids = io::load_surface_ids(sequence, work.frame_id, work.cells.labels.cols,
-                                               work.cells.labels.rows);
-      if (!ids.empty()) merge_evaluator->add_frame(work.cells.labels, ids, work.world_cells, work.merge);
+      try {  // an unreadable GT file ends the merge scores, not the replay
+        const cv::Mat ids = io::load_surface_ids(sequence, work.frame_id, work.cells.labels.cols,
+                                                 work.cells.labels.rows);
+        if (!ids.empty()) merge_evaluator->add_frame(work.cells.labels, ids, work.world_cells, work.merge);
+      } catch (const InputError& e) {
+        spdlog::warn("replay: merging not scored against ground truth: {}", e.what());
+        merge_evaluator.reset();
+      }
     }
     if (score_completeness && work.frame_id % kCompletenessFrameStride == 0 && work.frame_id < truth->second.size()) {
       try {  // an unreadable GT file ends the score, not the replay

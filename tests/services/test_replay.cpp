@@ -176,6 +176,23 @@ TEST_F(ReplayTest, CorruptGtDisparityDropsTheCompletenessScoreNotTheMap) {
   EXPECT_FALSE(report.map_completeness.has_value());
 }
 
+TEST_F(ReplayTest, CorruptGtSurfaceIdsDropTheMergeScoresNotTheMap) {
+  ReplayOptions options;
+  options.sequence_dir = scratch_ / "seq";
+  options.progress = false;
+  const ReplayReport scored = run_replay(options, config_);
+  ASSERT_TRUE(scored.merge_metrics.has_value());
+  // Frame 2's surface ids become garbage: the scores end there, the map does not.
+  for (const auto& entry : std::filesystem::directory_iterator(scratch_ / "seq" / "surface_0"))
+    if (entry.path().stem() == "000002") std::ofstream(entry.path(), std::ios::trunc) << "not a png";
+  const ReplayReport report = run_replay(options, config_);
+  EXPECT_EQ(report.frames, 4u);
+  EXPECT_EQ(report.cells_in_map, scored.cells_in_map);  // the same map
+  EXPECT_EQ(report.surfaces, scored.surfaces);
+  EXPECT_FALSE(report.merge_metrics.has_value());
+  EXPECT_TRUE(report.map_completeness.has_value());  // the other scores stay
+}
+
 TEST(ReplayFrameRange, ParsesBoundsAndRejectsNonsense) {
   using Range = std::pair<std::size_t, std::size_t>;
   EXPECT_EQ(parse_frame_range("3:10"), Range(3, 10));
