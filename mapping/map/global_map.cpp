@@ -139,6 +139,9 @@ GlobalMap::GlobalMap(const MapConfig& config)
     throw ConfigError("map.neighbour_gap_m: must be >= 0, got " + std::to_string(config.neighbour_gap_m));
   if (!(config.bridge_gap_m >= 0.0))
     throw ConfigError("map.bridge_gap_m: must be >= 0 (0 = off), got " + std::to_string(config.bridge_gap_m));
+  if (!(config.min_inlier_ratio >= 0.0 && config.min_inlier_ratio <= 1.0))
+    throw ConfigError("map.min_inlier_ratio: must be in [0, 1] (0 = no gate), got " +
+                      std::to_string(config.min_inlier_ratio));
 }
 
 std::vector<std::uint32_t> GlobalMap::cells_near(const Aabb& box) const { return query_cells(box); }
@@ -192,7 +195,8 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
     const Planecell& cell = cells_world[i];
     if (!cell.has_plane || !cell_problem(cell.plane, cell.vertices_m, index_.max_coordinate_m()).empty() ||
         (vertex_centroid(cell.vertices_m) - camera_centre).norm() > config_.max_range_m ||
-        (config_.max_depth_sigma_m > 0.0 && cell.depth_sigma_m > config_.max_depth_sigma_m)) {
+        (config_.max_depth_sigma_m > 0.0 && cell.depth_sigma_m > config_.max_depth_sigma_m) ||
+        (cell.inlier_ratio > 0.0f && cell.inlier_ratio < config_.min_inlier_ratio)) {
       ++report.rejected_cells;
       continue;
     }

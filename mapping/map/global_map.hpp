@@ -61,7 +61,7 @@ struct SurfaceMerge {
 struct MergeReport {
   std::uint64_t frame_id = 0;
   std::size_t input_cells = 0;    ///< cells handed in
-  std::size_t rejected_cells = 0; ///< planeless, degenerate, beyond max_range_m or max_depth_sigma_m
+  std::size_t rejected_cells = 0; ///< planeless, degenerate, beyond max_range_m or max_depth_sigma_m, below min_inlier_ratio
   std::size_t fused_cells = 0;    ///< re-observations folded into a surface, not stored
   std::size_t redundant_cells = 0;  ///< of those, fused by coverage (MapConfig::redundant_coverage)
   std::vector<std::uint32_t> added_cells;       ///< new stored cells (map ids)

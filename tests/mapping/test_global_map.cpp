@@ -105,6 +105,33 @@ TEST(GlobalMapTest, RejectsCellsNoisierThanMaxDepthSigma) {
   }
 }
 
+TEST(GlobalMapTest, RejectsCellsWithAWeakPlaneFit) {
+  // Three cells at 10 m, apart from each other: RANSAC inlier ratios 0.6, 0.9 and unknown (0).
+  std::vector<Planecell> cells = {rect_cell(0, {0, 1.5f, 10}, kX, kZ, 0),
+                                  rect_cell(1, {5, 1.5f, 10}, kX, kZ, 0),
+                                  rect_cell(2, {-5, 1.5f, 10}, kX, kZ, 0)};
+  cells[0].inlier_ratio = 0.6f;
+  cells[1].inlier_ratio = 0.9f;
+  cells[2].inlier_ratio = 0.0f;
+  for (const double gate : {0.8, 0.0}) {
+    SCOPED_TRACE(gate);
+    MapConfig config;
+    config.min_inlier_ratio = gate;  // 0: no gate
+    GlobalMap map(config);
+    const auto report = map.integrate(1, Pose::Identity(), cells);
+    EXPECT_EQ(report.rejected_cells, gate > 0.0 ? 1u : 0u);
+    EXPECT_EQ(map.cells().size(), gate > 0.0 ? 2u : 3u);
+    EXPECT_EQ(report.cell_surfaces[0] == kNoSurface, gate > 0.0);
+    EXPECT_NE(report.cell_surfaces[1], kNoSurface);
+    EXPECT_NE(report.cell_surfaces[2], kNoSurface);  // an unknown ratio is never gated
+  }
+  for (const double bad : {-0.1, 1.5, std::nan("")}) {
+    MapConfig config;
+    config.min_inlier_ratio = bad;
+    EXPECT_THROW(GlobalMap{config}, ConfigError) << bad;
+  }
+}
+
 /// Surfaces keep their colour histogram at 16 bits per bin: a round trip moves each bin by at most
 /// half a quantum (2⁻¹⁷), and a surface's stored histogram is its only cell's, so compact.
 TEST(GlobalMapTest, SurfaceHistogramsKeepSixteenBitsPerBin) {
