@@ -159,12 +159,12 @@ ReplayReport run_replay(const ReplayOptions& options, const AppConfig& config) {
   }
   // The sequence's own poses, read once: ground truth of the map completeness and of the
   // refinement's trajectory metrics.
+  const bool has_gt_disparity = io::has_disparity_ground_truth(sequence);
   std::optional<std::pair<std::filesystem::path, std::vector<Pose>>> truth;
-  if (io::has_disparity_ground_truth(sequence) || config.refine.enabled)
-    truth = sequence_ground_truth(options.sequence_dir);
+  if (has_gt_disparity || config.refine.enabled) truth = sequence_ground_truth(options.sequence_dir);
   // Map completeness (sequences with GT disparity and their own pose file): GT points of every
   // kCompletenessFrameStride-th frame, in the world by the GT pose, scored against the final map.
-  bool score_completeness = truth && io::has_disparity_ground_truth(sequence);
+  bool score_completeness = truth && has_gt_disparity;
   std::vector<Eigen::Vector3d> completeness_points;
   // Pose refinement (issue 9): on this thread here; threaded, in the pipeline's merge stage, whose
   // record is copied here once it has finished.

@@ -193,10 +193,11 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
   std::unordered_map<std::uint32_t, std::uint32_t> unit_of_extraction_id;
   for (std::size_t i = 0; i < cells_world.size(); ++i) {
     const Planecell& cell = cells_world[i];
-    if (!cell.has_plane || !cell_problem(cell.plane, cell.vertices_m, index_.max_coordinate_m()).empty() ||
-        (vertex_centroid(cell.vertices_m) - camera_centre).norm() > config_.max_range_m ||
-        (config_.max_depth_sigma_m > 0.0 && cell.depth_sigma_m > config_.max_depth_sigma_m) ||
-        (cell.inlier_ratio > 0.0f && cell.inlier_ratio < config_.min_inlier_ratio)) {
+    // The cell's own fields first (cheap), then its geometry.
+    if (!cell.has_plane || (config_.max_depth_sigma_m > 0.0 && cell.depth_sigma_m > config_.max_depth_sigma_m) ||
+        (cell.inlier_ratio > 0.0f && cell.inlier_ratio < config_.min_inlier_ratio) ||
+        !cell_problem(cell.plane, cell.vertices_m, index_.max_coordinate_m()).empty() ||
+        (vertex_centroid(cell.vertices_m) - camera_centre).norm() > config_.max_range_m) {
       ++report.rejected_cells;
       continue;
     }

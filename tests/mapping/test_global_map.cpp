@@ -86,45 +86,45 @@ TEST(GlobalMapTest, RejectsCellsBeyondMaxRange) {
   EXPECT_EQ(map.cells().size(), 1u);
 }
 
-TEST(GlobalMapTest, RejectsCellsNoisierThanMaxDepthSigma) {
-  // Three cells at 10 m, apart from each other, with σ_Z 0.5, 0.7 m and unknown (0).
-  std::vector<Planecell> cells = {rect_cell(0, {0, 1.5f, 10}, kX, kZ, 0),
-                                  rect_cell(1, {5, 1.5f, 10}, kX, kZ, 0),
-                                  rect_cell(2, {-5, 1.5f, 10}, kX, kZ, 0)};
-  cells[0].depth_sigma_m = 0.5f;
-  cells[1].depth_sigma_m = 0.7f;
-  for (const double gate : {0.6, 0.0}) {
+/// Three cells at 10 m, apart from each other (x = 0, 5, −5 m).
+std::vector<Planecell> three_cells_apart() {
+  return {rect_cell(0, {0, 1.5f, 10}, kX, kZ, 0), rect_cell(1, {5, 1.5f, 10}, kX, kZ, 0),
+          rect_cell(2, {-5, 1.5f, 10}, kX, kZ, 0)};
+}
+
+/// Integrates `cells` with a map gate set to `on` by `set_gate(config, value)`, then set to 0 (off):
+/// exactly cell `gated` is rejected when on, none when off.
+template <class SetGate>
+void expect_gate_rejects_only(const std::vector<Planecell>& cells, SetGate set_gate, double on,
+                              std::size_t gated) {
+  for (const double gate : {on, 0.0}) {
     SCOPED_TRACE(gate);
     MapConfig config;
-    config.max_depth_sigma_m = gate;  // 0: no gate
+    set_gate(config, gate);
     GlobalMap map(config);
     const auto report = map.integrate(1, Pose::Identity(), cells);
     EXPECT_EQ(report.rejected_cells, gate > 0.0 ? 1u : 0u);
     EXPECT_EQ(map.cells().size(), gate > 0.0 ? 2u : 3u);
-    EXPECT_EQ(report.cell_surfaces[1] == kNoSurface, gate > 0.0);
+    for (std::size_t k = 0; k < cells.size(); ++k)
+      EXPECT_EQ(report.cell_surfaces[k] == kNoSurface, gate > 0.0 && k == gated) << "cell " << k;
   }
 }
 
+TEST(GlobalMapTest, RejectsCellsNoisierThanMaxDepthSigma) {
+  // σ_Z 0.5, 0.7 m and unknown (0): only the 0.7 m cell exceeds the 0.6 m gate.
+  std::vector<Planecell> cells = three_cells_apart();
+  cells[0].depth_sigma_m = 0.5f;
+  cells[1].depth_sigma_m = 0.7f;
+  expect_gate_rejects_only(cells, [](MapConfig& c, double v) { c.max_depth_sigma_m = v; }, 0.6, 1);
+}
+
 TEST(GlobalMapTest, RejectsCellsWithAWeakPlaneFit) {
-  // Three cells at 10 m, apart from each other: RANSAC inlier ratios 0.6, 0.9 and unknown (0).
-  std::vector<Planecell> cells = {rect_cell(0, {0, 1.5f, 10}, kX, kZ, 0),
-                                  rect_cell(1, {5, 1.5f, 10}, kX, kZ, 0),
-                                  rect_cell(2, {-5, 1.5f, 10}, kX, kZ, 0)};
+  // RANSAC inlier ratios 0.6, 0.9 and unknown (0, never gated): only the 0.6 cell is below 0.8.
+  std::vector<Planecell> cells = three_cells_apart();
   cells[0].inlier_ratio = 0.6f;
   cells[1].inlier_ratio = 0.9f;
   cells[2].inlier_ratio = 0.0f;
-  for (const double gate : {0.8, 0.0}) {
-    SCOPED_TRACE(gate);
-    MapConfig config;
-    config.min_inlier_ratio = gate;  // 0: no gate
-    GlobalMap map(config);
-    const auto report = map.integrate(1, Pose::Identity(), cells);
-    EXPECT_EQ(report.rejected_cells, gate > 0.0 ? 1u : 0u);
-    EXPECT_EQ(map.cells().size(), gate > 0.0 ? 2u : 3u);
-    EXPECT_EQ(report.cell_surfaces[0] == kNoSurface, gate > 0.0);
-    EXPECT_NE(report.cell_surfaces[1], kNoSurface);
-    EXPECT_NE(report.cell_surfaces[2], kNoSurface);  // an unknown ratio is never gated
-  }
+  expect_gate_rejects_only(cells, [](MapConfig& c, double v) { c.min_inlier_ratio = v; }, 0.8, 0);
   for (const double bad : {-0.1, 1.5, std::nan("")}) {
     MapConfig config;
     config.min_inlier_ratio = bad;

@@ -23,6 +23,12 @@ class ReplayTest : public ::testing::Test {
     test::write_small_street(scratch_ / "seq", 4, 5);
     config_ = test::small_street_config();
   }
+  /// Overwrites frame `stem`'s file in the sequence's GT folder `folder` with bytes no image
+  /// decoder accepts.
+  void corrupt_gt_file(const char* folder, const char* stem) const {
+    for (const auto& entry : std::filesystem::directory_iterator(scratch_ / "seq" / folder))
+      if (entry.path().stem() == stem) std::ofstream(entry.path(), std::ios::trunc) << "not a png";
+  }
   test::ScratchDir scratch_;
   AppConfig config_;
 };
@@ -168,8 +174,7 @@ TEST_F(ReplayTest, CorruptGtDisparityDropsTheCompletenessScoreNotTheMap) {
   const ReplayReport scored = run_replay(options, config_);
   ASSERT_TRUE(scored.map_completeness.has_value());
   // Frame 0's GT disparity (the only one scored, every 10th frame) becomes garbage.
-  for (const auto& entry : std::filesystem::directory_iterator(scratch_ / "seq" / "disp_occ_0"))
-    if (entry.path().stem() == "000000") std::ofstream(entry.path(), std::ios::trunc) << "not a png";
+  corrupt_gt_file("disp_occ_0", "000000");
   const ReplayReport report = run_replay(options, config_);
   EXPECT_EQ(report.frames, 4u);
   EXPECT_EQ(report.cells_in_map, scored.cells_in_map);  // the same map
@@ -183,8 +188,7 @@ TEST_F(ReplayTest, CorruptGtSurfaceIdsDropTheMergeScoresNotTheMap) {
   const ReplayReport scored = run_replay(options, config_);
   ASSERT_TRUE(scored.merge_metrics.has_value());
   // Frame 2's surface ids become garbage: the scores end there, the map does not.
-  for (const auto& entry : std::filesystem::directory_iterator(scratch_ / "seq" / "surface_0"))
-    if (entry.path().stem() == "000002") std::ofstream(entry.path(), std::ios::trunc) << "not a png";
+  corrupt_gt_file("surface_0", "000002");
   const ReplayReport report = run_replay(options, config_);
   EXPECT_EQ(report.frames, 4u);
   EXPECT_EQ(report.cells_in_map, scored.cells_in_map);  // the same map
