@@ -28,7 +28,7 @@ bool nearly_coplanar(const Planecell& cell, const MapCell& old, double max_angle
 }
 
 double covered_fraction(const Plane3& plane, std::span<const Eigen::Vector3f> vertices,
-                        const CoverageTest& covered, int samples) {
+                        const CoverageTest& covered, int samples, double min_fraction) {
   if (vertices.size() < 3 || samples < 1) return 0.0;
   const PlaneBasis basis = make_basis(plane, vertex_centroid(vertices));
   const auto ring = project_to_basis(vertices, basis);
@@ -41,7 +41,8 @@ double covered_fraction(const Plane3& plane, std::span<const Eigen::Vector3f> ve
   const double step = std::max(std::sqrt(size.x() * size.y() / samples), 1e-6);
   const int nx = std::clamp(static_cast<int>(std::ceil(size.x() / step)), 1, 4 * samples);
   const int ny = std::clamp(static_cast<int>(std::ceil(size.y() / step)), 1, 4 * samples);
-  int own = 0, hits = 0;
+  // The grid points inside the polygon first (the denominator), then the tests, in grid order.
+  std::vector<Eigen::Vector2d> own;
   std::vector<double> crossings;
   for (int j = 0; j < ny; ++j) {
     const double t = lo.y() + (j + 0.5) * size.y() / ny;
@@ -55,16 +56,23 @@ double covered_fraction(const Plane3& plane, std::span<const Eigen::Vector3f> ve
     for (int i = 0; i < nx; ++i) {
       const Eigen::Vector2d st(lo.x() + (i + 0.5) * size.x() / nx, t);
       const auto right = std::count_if(crossings.begin(), crossings.end(), [&](double x) { return st.x() < x; });
-      if (right % 2 == 0) continue;
-      ++own;
-      if (covered(st, basis)) ++hits;
+      if (right % 2 == 1) own.push_back(st);
     }
   }
-  return own > 0 ? static_cast<double>(hits) / own : 0.0;
+  if (own.empty()) return 0.0;
+  const auto n = static_cast<double>(own.size());
+  std::size_t misses = 0;
+  for (const auto& st : own) {
+    if (covered(st, basis)) continue;
+    // The share can reach at most (own − misses) / own: below min_fraction, stop here.
+    if (const double best = static_cast<double>(own.size() - ++misses) / n; best < min_fraction) return best;
+  }
+  return static_cast<double>(own.size() - misses) / n;
 }
 
 double covered_fraction(const Plane3& plane, std::span<const Eigen::Vector3f> vertices,
-                        std::span<const std::span<const Eigen::Vector3f>> covering, int samples) {
+                        std::span<const std::span<const Eigen::Vector3f>> covering, int samples,
+                        double min_fraction) {
   if (covering.empty() || vertices.size() < 3) return 0.0;
   const PlaneBasis basis = make_basis(plane, vertex_centroid(vertices));
   const BoxedRing own(project_to_basis(vertices, basis));
@@ -82,7 +90,7 @@ double covered_fraction(const Plane3& plane, std::span<const Eigen::Vector3f> ve
         return std::any_of(rings.begin(), rings.end(),
                            [&](const BoxedRing& r) { return r.contains(st); });
       },
-      samples);
+      samples, min_fraction);
 }
 
 }  // namespace planecell::map

@@ -30,25 +30,30 @@ using CoverageTest = std::function<bool(const Eigen::Vector2d& st, const PlaneBa
 /// Share of the polygon `vertices` (on `plane`) passing `covered`, estimated on a grid of about
 /// `samples` points over the polygon's bounding box in its plane:
 ///   covered ≈ |{grid points in the polygon with covered(st)}| / |{grid points in the polygon}|,
-/// 0 when no grid point falls inside it.
+/// 0 when no grid point falls inside it. The points are tested in grid order; once the share can
+/// no longer reach `min_fraction` (misses > (1 − min_fraction) · |inside|), testing stops and the
+/// share reachable at that point, (|inside| − misses) / |inside| < min_fraction, is returned. So
+/// the result is exact whenever it is ≥ min_fraction, and `covered_fraction(...) >= min_fraction`
+/// decides as the full estimate would (min_fraction = 0: always exact).
 double covered_fraction(const Plane3& plane, std::span<const Eigen::Vector3f> vertices,
-                        const CoverageTest& covered, int samples = 64);
+                        const CoverageTest& covered, int samples = 64, double min_fraction = 0.0);
 
 /// The same estimate with "inside one of the `covering` polygons, all projected orthogonally onto
 /// `plane`" as the test ∈ [0, 1]. The cost is O(samples · Σ vertices) whatever the polygons' sizes
 /// in metres.
 double covered_fraction(const Plane3& plane, std::span<const Eigen::Vector3f> vertices,
-                        std::span<const std::span<const Eigen::Vector3f>> covering, int samples = 64);
+                        std::span<const std::span<const Eigen::Vector3f>> covering, int samples = 64,
+                        double min_fraction = 0.0);
 
 /// covered_fraction of `cell` by the `covering` cells (any cells with plane and vertices_m:
 /// Planecell, MapCell).
 template <class Cell, class Covering>
 double covered_fraction(const Cell& cell, const std::vector<const Covering*>& covering,
-                        int samples = 64) {
+                        int samples = 64, double min_fraction = 0.0) {
   std::vector<std::span<const Eigen::Vector3f>> polygons;
   polygons.reserve(covering.size());
   for (const Covering* c : covering) polygons.emplace_back(c->vertices_m);
-  return covered_fraction(cell.plane, cell.vertices_m, polygons, samples);
+  return covered_fraction(cell.plane, cell.vertices_m, polygons, samples, min_fraction);
 }
 
 }  // namespace planecell::map

@@ -258,8 +258,9 @@ EdgeEvaluation CrfMerger::evaluate(const MergeUnit& a, const LabelState& label_a
       in_range = in_range && hi.moments.rms_distance_m(lo.plane) <= distance_tolerance(hi) &&
                  ev.angle_deg <= angle_tolerance(hi);
   }
+  if (!in_range) return ev;  // out of the variation range: the colour is not needed
   ev.colour_similarity = colour_similarity(lo.histogram, hi.histogram);
-  ev.in_range = in_range && ev.colour_similarity >= config_.min_colour_similarity;
+  ev.in_range = ev.colour_similarity >= config_.min_colour_similarity;
   if (!ev.in_range) return ev;  // never merged: the gain only orders the edges in range
   // Energy gained (the greedy's visiting order): δ + φ + ψ of the edge's two cells.
   const double sigma = config_.residual_scale_m;

@@ -121,7 +121,8 @@ struct EdgeEvaluation {
   double angle_deg = 0.0;         ///< between the two labels' plane normals
   double distance_m = 0.0;        ///< RMS distance of the less-informed label's points to the
                                   ///< better-informed label's plane
-  double colour_similarity = 0.0; ///< min of the two cell-vs-surface δ
+  double colour_similarity = 0.0; ///< Σ_q min(h_lo[q], h_hi[q]) of the two labels' histograms;
+                                  ///< 0 (not computed) when the planes are out of range
   double gain = 0.0;              ///< δ_a + δ_b + φ + ψ: energy gained by giving both one label
 };
 

@@ -80,10 +80,7 @@ Polygon2 to_polygon2(std::span<const Eigen::Vector3f> vertices, const PlaneBasis
 
 double point_segment_distance(const Eigen::Vector3d& p, const Eigen::Vector3d& a,
                               const Eigen::Vector3d& b) {
-  const Eigen::Vector3d ab = b - a;
-  const double len2 = ab.squaredNorm();
-  const double t = len2 > 0.0 ? std::clamp((p - a).dot(ab) / len2, 0.0, 1.0) : 0.0;
-  return (a + t * ab - p).norm();
+  return std::sqrt(point_segment_squared_distance(p, a, b));
 }
 
 namespace {
@@ -127,7 +124,8 @@ bool polygons_within_m(const Plane3& plane_a, std::span<const Eigen::Vector3f> a
                        double max_m) {
   if (a.size() < 3 || b.size() < 3) return false;
   /// Is some vertex of `from` within max_m of the polygon `to` (on `plane`, bounds `box`)?
-  auto any_vertex_within = [max_m](std::span<const Eigen::Vector3f> from, const Plane3& plane,
+  const double max_m2 = max_m * max_m;  // edge tests compare squared distances (no square root)
+  auto any_vertex_within = [max_m, max_m2](std::span<const Eigen::Vector3f> from, const Plane3& plane,
                                    std::span<const Eigen::Vector3f> to, const Aabb& box) {
     // to's outline in a basis of its plane, built for the first vertex that needs it (on the stack
     // for the usual few vertices).
@@ -142,7 +140,8 @@ bool polygons_within_m(const Plane3& plane_a, std::span<const Eigen::Vector3f> a
       // when v projects inside it: within max_m iff an edge is, or v projects inside. A projection
       // on the outline is within an edge's reach already, so the even-odd test decides the rest.
       for (std::size_t k = 0; k < to.size(); ++k)
-        if (point_segment_distance(v, to[k].cast<double>(), to[(k + 1) % to.size()].cast<double>()) <= max_m)
+        if (point_segment_squared_distance(v, to[k].cast<double>(), to[(k + 1) % to.size()].cast<double>()) <=
+            max_m2)
           return true;
       if (!basis) {
         basis = make_basis(plane, to[0].cast<double>());

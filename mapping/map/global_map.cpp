@@ -89,9 +89,11 @@ struct Coverage {
 
 /// Share of `cell` lying in a covering stored cell's polygon (projected onto cell's plane) or in a
 /// covering surface's footprint (cell's points projected orthogonally onto the surface's basis),
-/// and the surface that covers most grid points (a stored cell counts for its surface).
+/// and the surface that covers most grid points (a stored cell counts for its surface). Exact when
+/// the share is ≥ min_fraction; below it, the estimate stops early (covered_fraction) and
+/// `surface` is meaningless.
 Coverage coverage_of(const Planecell& cell, std::span<const MapCell* const> cells,
-                     std::span<const Surface* const> surfaces) {
+                     std::span<const Surface* const> surfaces, double min_fraction) {
   std::vector<BoxedRing> rings;  // the cells projected into cell's basis
   std::map<std::uint32_t, int> hits;  // by surface id: ties go to the oldest surface
   Coverage c;
@@ -115,7 +117,7 @@ Coverage coverage_of(const Planecell& cell, std::span<const MapCell* const> cell
       }
     }
     return false;
-  });
+  }, 64, min_fraction);
   int best = 0;
   for (const auto& [id, n] : hits)
     if (n > best) best = n, c.surface = id;
@@ -263,6 +265,15 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
   const auto max_age = static_cast<std::uint64_t>(std::max(0, config_.unconfirmed_max_age_frames));
   const double reach = coverage_rule ? std::max(gap, config_.redundant_max_distance_m) : gap;
   std::vector<std::uint32_t> nearby;  // index candidates of one new cell (storage reused)
+  /// Stored cells met this frame with their surface and bounds: neighbouring new cells share most
+  /// of their candidates, so each stored cell's bounds are computed once per frame, not once per
+  /// new cell (nothing is added to or removed from the map before step 5).
+  struct MetCell {
+    const MapCell* cell = nullptr;
+    const Surface* surface = nullptr;
+    Aabb box;
+  };
+  std::unordered_map<std::uint32_t, MetCell> met_cells;
   // Coverage accepts normals at most 2·redundant_normal_angle_deg apart (nearly_coplanar below):
   // a stored cell tilted more against the new cell, and on a surface tilted more, is skipped
   // before the per-pair angle is computed.
@@ -278,14 +289,19 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
     const double max_surface_sigma =
         config_.redundant_precision_ratio *
         std::max<double>(cell.depth_sigma_m, config_.residual_scale_m);
-    // The index's candidates, filtered here so that each stored cell's bounds are computed once.
+    // The index's candidates, filtered by their bounds.
     const Aabb reach_box = box.inflated(reach);
     index_.candidates(reach_box, nearby);
     for (std::uint32_t id : nearby) {
-      const MapCell& old = cells_.at(id);
-      const Aabb old_box = bounds_of(old.vertices_m);
+      auto [met, first_time] = met_cells.try_emplace(id);
+      if (first_time) {
+        const MapCell& c = cells_.at(id);
+        met->second = {&c, &surfaces_.at(c.surface), bounds_of(c.vertices_m)};
+      }
+      const MapCell& old = *met->second.cell;
+      const Aabb& old_box = met->second.box;
       if (!old_box.overlaps(reach_box)) continue;
-      const Surface& surface = surfaces_.at(old.surface);
+      const Surface& surface = *met->second.surface;
       if (max_age > 0 && old.frame_id + max_age <= frame_id && surface.observations == 1)
         unconfirmed.insert(old.surface);
       const bool neighbour = near_box.overlaps(old_box) &&
@@ -360,7 +376,7 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
         covering_surface.push_back(&it->second);
     }
     const Coverage coverage = coverage_rule && (!covering[k].empty() || !covering_surface.empty())
-                                  ? coverage_of(cell, covering[k], covering_surface)
+                                  ? coverage_of(cell, covering[k], covering_surface, config_.redundant_coverage)
                                   : Coverage{};
     const bool redundant = coverage.fraction >= config_.redundant_coverage;
     const std::uint32_t cover_surface = coverage.surface;
@@ -399,7 +415,7 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
     // below) instead of being fused: the map keeps the nearer, better view of each place.
     const bool supersedes =
         !redundant && !superseded[k].empty() &&
-        covered_fraction(cell, superseded[k]) >= config_.redundant_coverage;
+        covered_fraction(cell, superseded[k], 64, config_.redundant_coverage) >= config_.redundant_coverage;
     if (had_footprint && !supersedes &&
         (redundant || added < config_.fuse_new_area_fraction * area)) {
       ++report.fused_cells;
@@ -422,7 +438,7 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
   // Replaced cells leave the map (a surface keeps at least one cell: its last is never replaced).
   for (const auto& [id, entry] : superseding) {
     const auto& [old, newer] = entry;
-    if (covered_fraction(*old, newer) < config_.redundant_coverage) continue;
+    if (covered_fraction(*old, newer, 64, config_.redundant_coverage) < config_.redundant_coverage) continue;
     const auto it = cells_.find(id);
     if (it == cells_.end()) continue;
     Surface& surface = surfaces_.at(it->second.surface);

@@ -36,6 +36,34 @@ TEST(Coverage, SharesOfASquareCoveredByHandPlacedSquares) {
   EXPECT_NEAR(covered_fraction(cell, std::vector{&lifted}, samples), 1.0, 1e-9);
 }
 
+/// With a minimum share, the estimate stops as soon as the share cannot reach it: fewer points are
+/// tested and the answer is below the minimum; a share that reaches it is exact.
+TEST(Coverage, StopsOnceTheShareCannotReachTheMinimum) {
+  const Planecell cell = road(0, 0);
+  const MapCell left = stored(road(1, 0, 0.5f)), right = stored(road(2, 0.5f, 0.5f));
+  const int samples = 400;
+  const double half = covered_fraction(cell, std::vector{&left}, samples);
+  EXPECT_NEAR(half, 0.5, 0.03);
+  EXPECT_EQ(covered_fraction(cell, std::vector{&left}, samples, 0.4), half);  // reached: exact
+  const double stopped = covered_fraction(cell, std::vector{&left}, samples, 0.75);
+  EXPECT_LT(stopped, 0.75);
+  EXPECT_GE(stopped, half);  // the share still reachable when it stopped
+  EXPECT_EQ(covered_fraction(cell, std::vector{&left, &right}, samples, 0.75), 1.0);
+  // Points in the cell's own basis: covered on one side of its centroid (about half of them).
+  int tested = 0;
+  const CoverageTest one_side = [&](const Eigen::Vector2d& st, const PlaneBasis&) {
+    ++tested;
+    return st.x() < 0.0;
+  };
+  const double full = covered_fraction(cell.plane, cell.vertices_m, one_side, samples);
+  const int all_points = tested;
+  EXPECT_NEAR(full, 0.5, 0.03);
+  tested = 0;
+  EXPECT_LT(covered_fraction(cell.plane, cell.vertices_m, one_side, samples, 0.75), 0.75);
+  EXPECT_LT(tested, all_points);
+  EXPECT_GE(tested, all_points / 4);  // at least a quarter of the points missed first
+}
+
 TEST(Coverage, NearlyCoplanarGatesAngleAndRmsDistance) {
   const Planecell cell = road(0, 0);
   EXPECT_TRUE(nearly_coplanar(cell, stored(road(1, 0.5f)), 10.0, 0.1));

@@ -28,6 +28,18 @@ TEST(MapGeometry, GapsBetweenHandPlacedSquares) {
   }
 }
 
+TEST(MapGeometry, PointToSegmentDistancesByHand) {
+  const Eigen::Vector3d a(-1, 0, 0), b(1, 0, 0);
+  // Foot of the perpendicular inside the segment: the distance is the height over it.
+  EXPECT_DOUBLE_EQ(point_segment_squared_distance({0.5, 1, 2}, a, b), 5.0);
+  EXPECT_DOUBLE_EQ(point_segment_distance({0.5, 3, 4}, a, b), 5.0);
+  // Beyond an end the nearest point is that end: (3, 0, 0) is 2 m from b.
+  EXPECT_DOUBLE_EQ(point_segment_squared_distance({3, 0, 0}, a, b), 4.0);
+  EXPECT_DOUBLE_EQ(point_segment_squared_distance({-2, 1, 0}, a, b), 2.0);
+  // A point segment: the distance to that point.
+  EXPECT_DOUBLE_EQ(point_segment_squared_distance({1, 2, 2}, Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()), 9.0);
+}
+
 /// Random squares (sizes 0.2–2 m, any orientation, centres within 3 m): the pruned test agrees
 /// with the full minimum at thresholds on both sides of every pair's gap.
 TEST(MapGeometry, WithinTestAgreesWithTheFullGapOnRandomPairs) {
