@@ -27,22 +27,20 @@ bool nearly_coplanar(const Planecell& cell, const MapCell& old, double max_angle
   return nearly_coplanar(cell.plane, old.plane, old.vertices_m, max_angle_deg, max_distance_m);
 }
 
-double covered_fraction(const Plane3& plane, std::span<const Eigen::Vector3f> vertices,
-                        const CoverageTest& covered, int samples, double min_fraction) {
-  if (vertices.size() < 3 || samples < 1) return 0.0;
-  const PlaneBasis basis = make_basis(plane, vertex_centroid(vertices));
-  const auto ring = project_to_basis(vertices, basis);
+CoverageGrid coverage_grid(const Plane3& plane, std::span<const Eigen::Vector3f> vertices, int samples) {
+  CoverageGrid grid;
+  if (vertices.size() < 3 || samples < 1) return grid;
+  grid.basis = make_basis(plane, vertex_centroid(vertices));
+  const auto ring = project_to_basis(vertices, grid.basis);
   Eigen::Vector2d lo = ring.front(), hi = ring.front();
   for (const auto& p : ring) lo = lo.cwiseMin(p), hi = hi.cwiseMax(p);
   // A square grid of about `samples` points over the cell's bounding box (centres of its squares).
   const Eigen::Vector2d size = hi - lo;
   const double area = polygon_area_m2(vertices);
-  if (!(area > 0.0) || !std::isfinite(area)) return 0.0;
+  if (!(area > 0.0) || !std::isfinite(area)) return grid;
   const double step = std::max(std::sqrt(size.x() * size.y() / samples), 1e-6);
   const int nx = std::clamp(static_cast<int>(std::ceil(size.x() / step)), 1, 4 * samples);
   const int ny = std::clamp(static_cast<int>(std::ceil(size.y() / step)), 1, 4 * samples);
-  // The grid points inside the polygon first (the denominator), then the tests, in grid order.
-  std::vector<Eigen::Vector2d> own;
   std::vector<double> crossings;
   for (int j = 0; j < ny; ++j) {
     const double t = lo.y() + (j + 0.5) * size.y() / ny;
@@ -56,18 +54,25 @@ double covered_fraction(const Plane3& plane, std::span<const Eigen::Vector3f> ve
     for (int i = 0; i < nx; ++i) {
       const Eigen::Vector2d st(lo.x() + (i + 0.5) * size.x() / nx, t);
       const auto right = std::count_if(crossings.begin(), crossings.end(), [&](double x) { return st.x() < x; });
-      if (right % 2 == 1) own.push_back(st);
+      if (right % 2 == 1) grid.points.push_back(st);
     }
   }
-  if (own.empty()) return 0.0;
-  const auto n = static_cast<double>(own.size());
+  return grid;
+}
+
+double covered_fraction(const Plane3& plane, std::span<const Eigen::Vector3f> vertices,
+                        const CoverageTest& covered, int samples, double min_fraction) {
+  const CoverageGrid grid = coverage_grid(plane, vertices, samples);
+  if (grid.points.empty()) return 0.0;
+  const auto n = static_cast<double>(grid.points.size());
   std::size_t misses = 0;
-  for (const auto& st : own) {
-    if (covered(st, basis)) continue;
-    // The share can reach at most (own − misses) / own: below min_fraction, stop here.
-    if (const double best = static_cast<double>(own.size() - ++misses) / n; best < min_fraction) return best;
+  for (const auto& st : grid.points) {
+    if (covered(st, grid.basis)) continue;
+    // The share can reach at most (points − misses) / points: below min_fraction, stop here.
+    if (const double best = static_cast<double>(grid.points.size() - ++misses) / n; best < min_fraction)
+      return best;
   }
-  return static_cast<double>(own.size() - misses) / n;
+  return static_cast<double>(grid.points.size() - misses) / n;
 }
 
 double covered_fraction(const Plane3& plane, std::span<const Eigen::Vector3f> vertices,

@@ -27,6 +27,16 @@ bool nearly_coplanar(const Planecell& cell, const MapCell& old, double max_angle
 /// basis.to_3d(st)) is covered by something the map holds.
 using CoverageTest = std::function<bool(const Eigen::Vector2d& st, const PlaneBasis& basis)>;
 
+/// The sample points of a coverage estimate: the centres of a square grid of about `samples`
+/// squares over the bounding box of the polygon `vertices` projected into `basis` =
+/// make_basis(plane, vertex centroid), those inside the polygon (even-odd rule), in row order.
+/// No points for fewer than 3 vertices, samples < 1, or a polygon of zero or non-finite area.
+struct CoverageGrid {
+  PlaneBasis basis;
+  std::vector<Eigen::Vector2d> points;
+};
+CoverageGrid coverage_grid(const Plane3& plane, std::span<const Eigen::Vector3f> vertices, int samples = 64);
+
 /// Share of the polygon `vertices` (on `plane`) passing `covered`, estimated on a grid of about
 /// `samples` points over the polygon's bounding box in its plane:
 ///   covered ≈ |{grid points in the polygon with covered(st)}| / |{grid points in the polygon}|,

@@ -89,38 +89,69 @@ struct Coverage {
 
 /// Share of `cell` lying in a covering stored cell's polygon (projected onto cell's plane) or in a
 /// covering surface's footprint (cell's points projected orthogonally onto the surface's basis),
-/// and the surface that covers most grid points (a stored cell counts for its surface). Exact when
-/// the share is ≥ min_fraction; below it, the estimate stops early (covered_fraction) and
-/// `surface` is meaningless.
+/// and the surface that covers most grid points (a stored cell counts for its surface; ties go to
+/// the oldest surface). The grid points (coverage_grid) are tested in order, and the test stops
+/// once the outcome against `min_fraction` is decided:
+/// - the share can no longer reach min_fraction: `fraction` < min_fraction, `surface` unset;
+/// - the share has reached it and no other surface can catch up with the leading one on the
+///   points left: `fraction` (≥ min_fraction so far) and `surface` as the full test would give.
 Coverage coverage_of(const Planecell& cell, std::span<const MapCell* const> cells,
                      std::span<const Surface* const> surfaces, double min_fraction) {
-  std::vector<BoxedRing> rings;  // the cells projected into cell's basis
-  std::map<std::uint32_t, int> hits;  // by surface id: ties go to the oldest surface
-  Coverage c;
-  c.fraction = covered_fraction(cell.plane, cell.vertices_m, [&](const Eigen::Vector2d& st, const PlaneBasis& basis) {
-    if (rings.size() != cells.size())
-      for (const MapCell* old : cells) rings.emplace_back(project_to_basis(old->vertices_m, basis));
-    bool any = false;
-    for (std::size_t i = 0; i < cells.size(); ++i)
-      if (rings[i].contains(st)) {
-        ++hits[cells[i]->surface];
-        any = true;
-        break;
-      }
-    if (any) return true;
-    const Eigen::Vector3d p = basis.to_3d(st);
-    for (const Surface* s : surfaces) {
-      const Eigen::Vector2d q = s->basis.to_2d(p);
-      if (s->footprint.contains(q.x(), q.y())) {
-        ++hits[s->id];
-        return true;
-      }
+  const CoverageGrid grid = coverage_grid(cell.plane, cell.vertices_m);
+  if (grid.points.empty()) return {};
+  std::vector<BoxedRing> rings;  // the cells projected into the grid's basis
+  rings.reserve(cells.size());
+  for (const MapCell* old : cells) rings.emplace_back(project_to_basis(old->vertices_m, grid.basis));
+  // Points covered per surface, one slot per distinct surface id (a hit costs no lookup).
+  std::vector<std::uint32_t> slot_surface;
+  std::vector<int> hits;
+  auto slot_of = [&](std::uint32_t id) {
+    const auto it = std::find(slot_surface.begin(), slot_surface.end(), id);
+    if (it != slot_surface.end()) return static_cast<std::size_t>(it - slot_surface.begin());
+    slot_surface.push_back(id);
+    hits.push_back(0);
+    return slot_surface.size() - 1;
+  };
+  std::vector<std::size_t> cell_slot, surface_slot;
+  for (const MapCell* old : cells) cell_slot.push_back(slot_of(old->surface));
+  for (const Surface* s : surfaces) surface_slot.push_back(slot_of(s->id));
+  constexpr auto kNone = static_cast<std::size_t>(-1);
+  auto covering_slot = [&](const Eigen::Vector2d& st) {
+    for (std::size_t i = 0; i < rings.size(); ++i)
+      if (rings[i].contains(st)) return cell_slot[i];
+    const Eigen::Vector3d p = grid.basis.to_3d(st);
+    for (std::size_t j = 0; j < surfaces.size(); ++j) {
+      const Eigen::Vector2d q = surfaces[j]->basis.to_2d(p);
+      if (surfaces[j]->footprint.contains(q.x(), q.y())) return surface_slot[j];
     }
-    return false;
-  }, 64, min_fraction);
-  int best = 0;
-  for (const auto& [id, n] : hits)
-    if (n > best) best = n, c.surface = id;
+    return kNone;
+  };
+  // The leading slot: most hits, ties to the smallest surface id.
+  auto leader = [&] {
+    std::size_t best = 0;
+    for (std::size_t k = 1; k < hits.size(); ++k)
+      if (hits[k] > hits[best] || (hits[k] == hits[best] && slot_surface[k] < slot_surface[best])) best = k;
+    return best;
+  };
+  const std::size_t n = grid.points.size();
+  std::size_t misses = 0, covered = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    const std::size_t slot = covering_slot(grid.points[i]);
+    if (slot == kNone) {
+      if (const double best = static_cast<double>(n - ++misses) / static_cast<double>(n); best < min_fraction)
+        return {best, kNoSurface};
+      continue;
+    }
+    ++covered, ++hits[slot];
+    if (static_cast<double>(covered) / static_cast<double>(n) < min_fraction) continue;
+    const std::size_t left = n - i - 1, lead = leader();
+    bool decided = true;
+    for (std::size_t k = 0; k < hits.size() && decided; ++k)
+      decided = k == lead || static_cast<std::size_t>(hits[k]) + left < static_cast<std::size_t>(hits[lead]);
+    if (decided) return {static_cast<double>(covered) / static_cast<double>(n), slot_surface[lead]};
+  }
+  Coverage c{static_cast<double>(covered) / static_cast<double>(n), kNoSurface};
+  if (covered > 0) c.surface = slot_surface[leader()];
   return c;
 }
 

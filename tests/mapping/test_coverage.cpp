@@ -108,6 +108,27 @@ TEST(Coverage, MapDoesNotStoreSpaceItAlreadyHoldsWhateverTheLabel) {
   }
 }
 
+/// A re-observation spanning two surfaces is fused into the one covering most of it.
+TEST(Coverage, ReobservationGoesToTheSurfaceCoveringMostOfIt) {
+  GlobalMap map;
+  // Two road patches the CRF keeps apart (colours far apart): A at x ∈ [0, 0.6], B at x ∈ [0.6, 1.6].
+  (void)map.integrate(0, Pose::Identity(), std::vector{road(0, 0, 0.6f, 3), road(1, 0.6f, 1.0f, 60)});
+  ASSERT_EQ(map.cells().size(), 2u);
+  const std::uint32_t a = map.cells().at(0).surface, b = map.cells().at(1).surface;
+  ASSERT_NE(a, b);
+  // A third colour (no CRF merge with either), fully covered: x ∈ [0, 1] lies 60 % on A.
+  const auto on_a = map.integrate(1, Pose::Identity(), std::vector{road(0, 0, 1.0f, 30)});
+  ASSERT_EQ(on_a.redundant_cells, 1u);
+  EXPECT_EQ(on_a.cell_surfaces[0], a);
+  // x ∈ [0.3, 1.3] lies 70 % on B.
+  const auto on_b = map.integrate(2, Pose::Identity(), std::vector{road(0, 0.3f, 1.0f, 30)});
+  ASSERT_EQ(on_b.redundant_cells, 1u);
+  EXPECT_EQ(on_b.cell_surfaces[0], b);
+  EXPECT_EQ(map.cells().size(), 2u);
+  EXPECT_EQ(map.surfaces().at(a).observations, 2u);
+  EXPECT_EQ(map.surfaces().at(b).observations, 2u);
+}
+
 /// Space the map holds only through a fused (unstored) observation still counts: coverage reads
 /// the surfaces' footprints, not just the stored polygons.
 TEST(Coverage, SpaceHeldOnlyByAFusedObservationIsNotStoredAgain) {
