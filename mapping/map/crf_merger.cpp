@@ -6,7 +6,6 @@
 #include <cmath>
 #include <limits>
 #include <numbers>
-#include <unordered_set>
 
 #include "core/error.hpp"
 #include "mapping/map/geometry.hpp"
@@ -285,22 +284,39 @@ std::vector<std::pair<std::uint32_t, std::uint32_t>> CrfMerger::merge(
     std::size_t edge;
   };
   std::vector<Candidate> candidates;
-  std::unordered_set<std::uint32_t> changed;  // labels whose state changed in this round
-  std::unordered_set<std::uint32_t> changed_before;  // ... in the round before
+  // The labels in play get dense slots (hash lookups once per unit, not per evaluation): slot s is
+  // label label_of[s] with state *state[s], union-find parent parent[s] (a root's label is the
+  // smallest of its set, as UnionFind::unite keeps it) and changed_in[s], the last round in which
+  // its state changed.
+  std::unordered_map<std::uint32_t, std::uint32_t> slot_of_label;
+  std::vector<std::uint32_t> label_of, parent, unit_slot(units.size());
+  std::vector<LabelState*> state;
+  for (std::size_t u = 0; u < units.size(); ++u) {
+    const std::uint32_t label = union_find.find(units[u].label);
+    const auto [it, added] = slot_of_label.try_emplace(label, static_cast<std::uint32_t>(label_of.size()));
+    if (added) {
+      label_of.push_back(label);
+      parent.push_back(it->second);
+      state.push_back(&labels.at(label));
+    }
+    unit_slot[u] = it->second;
+  }
+  auto root_of = [&](std::uint32_t s) {
+    while (parent[s] != s) s = parent[s] = parent[parent[s]];  // path halving
+    return s;
+  };
+  std::vector<int> changed_in(label_of.size(), -1);
   for (int round = 0; round < 64; ++round) {
     candidates.clear();
-    changed_before.swap(changed);
-    changed.clear();
     for (std::size_t e = 0; e < edges.size(); ++e) {
       const auto& edge = edges[e];
-      const std::uint32_t la = union_find.find(units[edge.a].label);
-      const std::uint32_t lb = union_find.find(units[edge.b].label);
-      if (la == lb) continue;
+      const std::uint32_t sa = root_of(unit_slot[edge.a]), sb = root_of(unit_slot[edge.b]);
+      if (sa == sb) continue;
       // After round 0 only edges touching a label changed in the round before can be in range:
       // an edge whose two labels kept their state was evaluated on that same state, and was
       // out of range then (one in range was merged when visited, its labels being unchanged).
-      if (round > 0 && !changed_before.contains(la) && !changed_before.contains(lb)) continue;
-      const auto ev = evaluate(units[edge.a], labels.at(la), units[edge.b], labels.at(lb), edge.boundary_m);
+      if (round > 0 && changed_in[sa] != round - 1 && changed_in[sb] != round - 1) continue;
+      const auto ev = evaluate(units[edge.a], *state[sa], units[edge.b], *state[sb], edge.boundary_m);
       if (ev.in_range) candidates.push_back({ev.gain, e});
     }
     if (candidates.empty()) break;
@@ -309,20 +325,21 @@ std::vector<std::pair<std::uint32_t, std::uint32_t>> CrfMerger::merge(
     bool merged_any = false;
     for (const auto& cand : candidates) {
       const auto& edge = edges[cand.edge];
-      const std::uint32_t la = union_find.find(units[edge.a].label);
-      const std::uint32_t lb = union_find.find(units[edge.b].label);
-      if (la == lb) continue;
+      const std::uint32_t sa = root_of(unit_slot[edge.a]), sb = root_of(unit_slot[edge.b]);
+      if (sa == sb) continue;
       // Planes may have moved since the round started: re-check the variation range (unless
       // neither label changed since the round's evaluation, which then still holds).
-      if ((changed.contains(la) || changed.contains(lb)) &&
-          !evaluate(units[edge.a], labels.at(la), units[edge.b], labels.at(lb), edge.boundary_m).in_range)
+      if ((changed_in[sa] == round || changed_in[sb] == round) &&
+          !evaluate(units[edge.a], *state[sa], units[edge.b], *state[sb], edge.boundary_m).in_range)
         continue;
-      const std::uint32_t root = union_find.unite(la, lb);
-      const std::uint32_t absorbed = root == la ? lb : la;
-      changed.insert(root);
-      fold_label(labels.at(root), labels.at(absorbed));
-      labels.erase(absorbed);
-      merges.emplace_back(absorbed, root);
+      const bool a_is_root = label_of[sa] < label_of[sb];
+      const std::uint32_t root = a_is_root ? sa : sb, absorbed = a_is_root ? sb : sa;
+      parent[absorbed] = root;
+      union_find.unite(label_of[sa], label_of[sb]);  // the caller's view of the same merge
+      changed_in[root] = round;
+      fold_label(*state[root], *state[absorbed]);
+      labels.erase(label_of[absorbed]);
+      merges.emplace_back(label_of[absorbed], label_of[root]);
       merged_any = true;
     }
     if (!merged_any) break;
