@@ -34,6 +34,7 @@ CoverageGrid coverage_grid(const Plane3& plane, std::span<const Eigen::Vector3f>
   const auto ring = project_to_basis(vertices, grid.basis);
   Eigen::Vector2d lo = ring.front(), hi = ring.front();
   for (const auto& p : ring) lo = lo.cwiseMin(p), hi = hi.cwiseMax(p);
+  grid.box = Eigen::AlignedBox2d(lo, hi);
   // A square grid of about `samples` points over the cell's bounding box (centres of its squares).
   const Eigen::Vector2d size = hi - lo;
   const double area = polygon_area_m2(vertices);
@@ -60,9 +61,7 @@ CoverageGrid coverage_grid(const Plane3& plane, std::span<const Eigen::Vector3f>
   return grid;
 }
 
-double covered_fraction(const Plane3& plane, std::span<const Eigen::Vector3f> vertices,
-                        const CoverageTest& covered, int samples, double min_fraction) {
-  const CoverageGrid grid = coverage_grid(plane, vertices, samples);
+double covered_fraction(const CoverageGrid& grid, const CoverageTest& covered, double min_fraction) {
   if (grid.points.empty()) return 0.0;
   const auto n = static_cast<double>(grid.points.size());
   std::size_t misses = 0;
@@ -76,26 +75,30 @@ double covered_fraction(const Plane3& plane, std::span<const Eigen::Vector3f> ve
 }
 
 double covered_fraction(const Plane3& plane, std::span<const Eigen::Vector3f> vertices,
+                        const CoverageTest& covered, int samples, double min_fraction) {
+  return covered_fraction(coverage_grid(plane, vertices, samples), covered, min_fraction);
+}
+
+double covered_fraction(const Plane3& plane, std::span<const Eigen::Vector3f> vertices,
                         std::span<const std::span<const Eigen::Vector3f>> covering, int samples,
                         double min_fraction) {
   if (covering.empty() || vertices.size() < 3) return 0.0;
-  const PlaneBasis basis = make_basis(plane, vertex_centroid(vertices));
-  const BoxedRing own(project_to_basis(vertices, basis));
+  const CoverageGrid grid = coverage_grid(plane, vertices, samples);
   std::vector<BoxedRing> rings;  // the covering polygons whose box meets the cell's
   rings.reserve(covering.size());
   for (const auto polygon : covering) {
     if (polygon.size() < 3) continue;
-    BoxedRing r(project_to_basis(polygon, basis));
-    if (r.box.intersects(own.box)) rings.push_back(std::move(r));
+    BoxedRing r(project_to_basis(polygon, grid.basis));
+    if (r.box.intersects(grid.box)) rings.push_back(std::move(r));
   }
   if (rings.empty()) return 0.0;
   return covered_fraction(
-      plane, vertices,
+      grid,
       [&](const Eigen::Vector2d& st, const PlaneBasis&) {
         return std::any_of(rings.begin(), rings.end(),
                            [&](const BoxedRing& r) { return r.contains(st); });
       },
-      samples, min_fraction);
+      min_fraction);
 }
 
 }  // namespace planecell::map

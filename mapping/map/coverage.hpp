@@ -27,43 +27,59 @@ bool nearly_coplanar(const Planecell& cell, const MapCell& old, double max_angle
 /// basis.to_3d(st)) is covered by something the map holds.
 using CoverageTest = std::function<bool(const Eigen::Vector2d& st, const PlaneBasis& basis)>;
 
+/// Grid points per coverage estimate, by default.
+inline constexpr int kCoverageSamples = 64;
+
 /// The sample points of a coverage estimate: the centres of a square grid of about `samples`
-/// squares over the bounding box of the polygon `vertices` projected into `basis` =
+/// squares over `box`, the bounding box of the polygon `vertices` projected into `basis` =
 /// make_basis(plane, vertex centroid), those inside the polygon (even-odd rule), in row order.
 /// No points for fewer than 3 vertices, samples < 1, or a polygon of zero or non-finite area.
 struct CoverageGrid {
   PlaneBasis basis;
+  Eigen::AlignedBox2d box;
   std::vector<Eigen::Vector2d> points;
 };
-CoverageGrid coverage_grid(const Plane3& plane, std::span<const Eigen::Vector3f> vertices, int samples = 64);
+CoverageGrid coverage_grid(const Plane3& plane, std::span<const Eigen::Vector3f> vertices,
+                           int samples = kCoverageSamples);
 
-/// Share of the polygon `vertices` (on `plane`) passing `covered`, estimated on a grid of about
-/// `samples` points over the polygon's bounding box in its plane:
+/// Share of `grid`'s points passing `covered` (0 without points). The points are tested in
+/// order; once the share can no longer reach `min_fraction` (misses > (1 − min_fraction) · points),
+/// testing stops and the share reachable at that point, (points − misses) / points < min_fraction,
+/// is returned. So the result is exact whenever it is ≥ min_fraction, and
+/// `covered_fraction(...) >= min_fraction` decides as the full estimate would (min_fraction = 0:
+/// always exact).
+double covered_fraction(const CoverageGrid& grid, const CoverageTest& covered, double min_fraction = 0.0);
+
+/// Share of the polygon `vertices` (on `plane`) passing `covered`, estimated on its coverage_grid:
 ///   covered ≈ |{grid points in the polygon with covered(st)}| / |{grid points in the polygon}|,
-/// 0 when no grid point falls inside it. The points are tested in grid order; once the share can
-/// no longer reach `min_fraction` (misses > (1 − min_fraction) · |inside|), testing stops and the
-/// share reachable at that point, (|inside| − misses) / |inside| < min_fraction, is returned. So
-/// the result is exact whenever it is ≥ min_fraction, and `covered_fraction(...) >= min_fraction`
-/// decides as the full estimate would (min_fraction = 0: always exact).
+/// 0 when no grid point falls inside it; `min_fraction` stops early as above.
 double covered_fraction(const Plane3& plane, std::span<const Eigen::Vector3f> vertices,
-                        const CoverageTest& covered, int samples = 64, double min_fraction = 0.0);
+                        const CoverageTest& covered, int samples = kCoverageSamples,
+                        double min_fraction = 0.0);
 
 /// The same estimate with "inside one of the `covering` polygons, all projected orthogonally onto
 /// `plane`" as the test ∈ [0, 1]. The cost is O(samples · Σ vertices) whatever the polygons' sizes
 /// in metres.
 double covered_fraction(const Plane3& plane, std::span<const Eigen::Vector3f> vertices,
-                        std::span<const std::span<const Eigen::Vector3f>> covering, int samples = 64,
-                        double min_fraction = 0.0);
+                        std::span<const std::span<const Eigen::Vector3f>> covering,
+                        int samples = kCoverageSamples, double min_fraction = 0.0);
 
 /// covered_fraction of `cell` by the `covering` cells (any cells with plane and vertices_m:
 /// Planecell, MapCell).
 template <class Cell, class Covering>
 double covered_fraction(const Cell& cell, const std::vector<const Covering*>& covering,
-                        int samples = 64, double min_fraction = 0.0) {
+                        int samples = kCoverageSamples, double min_fraction = 0.0) {
   std::vector<std::span<const Eigen::Vector3f>> polygons;
   polygons.reserve(covering.size());
   for (const Covering* c : covering) polygons.emplace_back(c->vertices_m);
   return covered_fraction(cell.plane, cell.vertices_m, polygons, samples, min_fraction);
+}
+
+/// Whether the `covering` cells cover at least `min_fraction` of `cell`:
+/// covered_fraction(cell, covering) ≥ min_fraction, testing no more points than that decision needs.
+template <class Cell, class Covering>
+bool covers_at_least(const Cell& cell, const std::vector<const Covering*>& covering, double min_fraction) {
+  return covered_fraction(cell, covering, kCoverageSamples, min_fraction) >= min_fraction;
 }
 
 }  // namespace planecell::map

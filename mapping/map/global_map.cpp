@@ -104,7 +104,7 @@ Coverage coverage_of(const Planecell& cell, std::span<const MapCell* const> cell
   for (const MapCell* old : cells) rings.emplace_back(project_to_basis(old->vertices_m, grid.basis));
   // Points covered per surface, one slot per distinct surface id (a hit costs no lookup).
   std::vector<std::uint32_t> slot_surface;
-  std::vector<int> hits;
+  std::vector<std::size_t> hits;
   auto slot_of = [&](std::uint32_t id) {
     const auto it = std::find(slot_surface.begin(), slot_surface.end(), id);
     if (it != slot_surface.end()) return static_cast<std::size_t>(it - slot_surface.begin());
@@ -147,7 +147,7 @@ Coverage coverage_of(const Planecell& cell, std::span<const MapCell* const> cell
     const std::size_t left = n - i - 1, lead = leader();
     bool decided = true;
     for (std::size_t k = 0; k < hits.size() && decided; ++k)
-      decided = k == lead || static_cast<std::size_t>(hits[k]) + left < static_cast<std::size_t>(hits[lead]);
+      decided = k == lead || hits[k] + left < hits[lead];
     if (decided) return {static_cast<double>(covered) / static_cast<double>(n), slot_surface[lead]};
   }
   Coverage c{static_cast<double>(covered) / static_cast<double>(n), kNoSurface};
@@ -446,7 +446,7 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
     // below) instead of being fused: the map keeps the nearer, better view of each place.
     const bool supersedes =
         !redundant && !superseded[k].empty() &&
-        covered_fraction(cell, superseded[k], 64, config_.redundant_coverage) >= config_.redundant_coverage;
+        covers_at_least(cell, superseded[k], config_.redundant_coverage);
     if (had_footprint && !supersedes &&
         (redundant || added < config_.fuse_new_area_fraction * area)) {
       ++report.fused_cells;
@@ -469,7 +469,7 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
   // Replaced cells leave the map (a surface keeps at least one cell: its last is never replaced).
   for (const auto& [id, entry] : superseding) {
     const auto& [old, newer] = entry;
-    if (covered_fraction(*old, newer, 64, config_.redundant_coverage) < config_.redundant_coverage) continue;
+    if (!covers_at_least(*old, newer, config_.redundant_coverage)) continue;
     const auto it = cells_.find(id);
     if (it == cells_.end()) continue;
     Surface& surface = surfaces_.at(it->second.surface);
