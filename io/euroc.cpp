@@ -7,8 +7,10 @@
 
 #include <Eigen/Geometry>
 #include <algorithm>
+#include <charconv>
 #include <cmath>
 #include <fstream>
+#include <limits>
 #include <map>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
@@ -66,10 +68,19 @@ std::optional<std::vector<double>> parse_numbers(std::string line) {
   return values;
 }
 
+/// Largest whole-second count whose nanoseconds (plus a fraction < 1 s) fit an int64:
+/// ⌊(2⁶³ − 1) / 10⁹⌋ − 1 = 9 223 372 035 s (year 2262).
+constexpr std::int64_t kMaxWholeSeconds = std::numeric_limits<std::int64_t>::max() / 1'000'000'000LL - 1;
+
 /// Leading decimal seconds of `text` ("1403715273.26214 ...") as exact nanoseconds: a double
-/// holds only ~16 digits, so the integer and fractional parts are read separately.
+/// holds only ~16 digits, so the integer and fractional parts are read separately. Times beyond
+/// ±kMaxWholeSeconds (no int64 nanosecond count) and unparsable tokens are InputErrors.
 std::int64_t seconds_text_to_ns(const std::string& text, const std::string& where) {
   const std::string token = text.substr(0, text.find_first_of(" \t,"));
+  const auto out_of_range = [&] {
+    return InputError(where + ": time '" + token + "' s is outside ±" +
+                      std::to_string(kMaxWholeSeconds) + " s");
+  };
   const auto dot = token.find('.');
   const std::string whole = token.substr(0, dot);
   std::string fraction = dot == std::string::npos ? "" : token.substr(dot + 1);
@@ -79,15 +90,30 @@ std::int64_t seconds_text_to_ns(const std::string& text, const std::string& wher
   if (!plain) {  // exponent or sign: fall back to double precision
     char* end = nullptr;
     const double seconds = std::strtod(token.c_str(), &end);
+    if (token.empty() || end != token.c_str() + token.size())
+      throw InputError(where + ": bad time '" + token + "'");
+    if (!(std::abs(seconds) <= static_cast<double>(kMaxWholeSeconds))) throw out_of_range();
     return static_cast<std::int64_t>(std::llround(seconds * 1e9));
   }
   if (fraction.size() > 9) fraction.resize(9);
   fraction.append(9 - fraction.size(), '0');
-  try {
-    return std::stoll(whole) * 1'000'000'000LL + std::stoll(fraction);
-  } catch (const std::logic_error&) {
-    throw InputError(where + ": bad time '" + token + "'");
-  }
+  const std::int64_t whole_seconds = std::stoll(whole);  // ≤ 10 digits: cannot overflow
+  if (whole_seconds > kMaxWholeSeconds) throw out_of_range();
+  return whole_seconds * 1'000'000'000LL + std::stoll(fraction);
+}
+
+/// Leading integer nanoseconds of a EuRoC csv row ("1403715273262142976,4,5,...") read exactly
+/// (a double would round it to a multiple of 256 ns); a non-integer or out-of-int64 stamp is an
+/// InputError.
+std::int64_t nanoseconds_text_to_ns(const std::string& text, const std::string& where) {
+  const std::string token = text.substr(0, text.find_first_of(" \t,"));
+  std::int64_t ns = 0;
+  const auto [end, error] = std::from_chars(token.data(), token.data() + token.size(), ns);
+  if (error == std::errc::result_out_of_range)
+    throw InputError(where + ": timestamp '" + token + "' ns does not fit 64 bits");
+  if (error != std::errc() || end != token.data() + token.size())
+    throw InputError(where + ": timestamp '" + token + "' is not an integer nanosecond count");
+  return ns;
 }
 
 struct CameraList {
@@ -236,7 +262,7 @@ std::vector<StampedPose> read_euroc_groundtruth(const fs::path& path) {
     StampedPose sample;
     Eigen::Quaterniond q;
     if (euroc_csv) {  // t[ns], p_x, p_y, p_z, q_w, q_x, q_y, q_z, ...
-      sample.timestamp_ns = static_cast<std::int64_t>(std::llround(x[0]));
+      sample.timestamp_ns = nanoseconds_text_to_ns(line.substr(first), where);
       q = Eigen::Quaterniond(x[4], x[5], x[6], x[7]);
     } else {  // t[s], tx, ty, tz, qx, qy, qz, qw
       sample.timestamp_ns = seconds_text_to_ns(line.substr(first), where);

@@ -72,6 +72,20 @@ TEST(FuzzRegression, EurocSensorYamlWithAHugeResolution) {
                   "resolution must be within [1, 65535]");
 }
 
+/// fuzz_euroc crash-1399a810: a TUM ground-truth time of 9 403 715 273 s (ten digits, so read
+/// as exact decimal text) overflowed int64 nanoseconds (signed overflow, undefined behaviour);
+/// now refused as a time outside ±9 223 372 035 s, naming the file and line.
+TEST(FuzzRegression, EurocGroundTruthTimeBeyondInt64Nanoseconds) {
+  test::ScratchDir dir;
+  write_text(dir / "gt.txt",
+             "# t tx ty tz qx qy qz qw\n"
+             "9403715273.262142976 4.688319 -1.78693 .78083338 -0.153029 -0.827383 -0.084304 "
+             "0.534108\n");
+  const std::string message = input_error_of([&] { (void)read_euroc_groundtruth(dir / "gt.txt"); });
+  EXPECT_CONTAINS(message, "gt.txt' line 2");
+  EXPECT_CONTAINS(message, "time '9403715273.262142976' s is outside");
+}
+
 /// Found writing the crash-recovery test (tests/services/test_crash_recovery.cpp): a replay
 /// killed between the creation of the store file and the commit of its schema left an empty file
 /// that every later open refused as "not an SQLite database". A store is now created as

@@ -117,6 +117,26 @@ TEST(EurocGroundTruth, ReadsTumAndEurocCsvQuaternionOrders) {
   EXPECT_CONTAINS(input_error_of([&] { read_euroc_groundtruth(dir / "bad.txt"); }), "quaternion");
 }
 
+TEST(EurocGroundTruth, TimesWithoutAnInt64NanosecondCountAreNamed) {
+  test::ScratchDir dir;
+  // 9 223 372 035 s is the last whole second whose nanoseconds fit an int64 (year 2262).
+  write_text(dir / "gt.txt", "9223372035.5 0 0 0 0 0 0 1\n");
+  EXPECT_EQ(read_euroc_groundtruth(dir / "gt.txt")[0].timestamp_ns, 9223372035500000000);
+  write_text(dir / "gt.txt", "9223372036 0 0 0 0 0 0 1\n");
+  EXPECT_CONTAINS(input_error_of([&] { read_euroc_groundtruth(dir / "gt.txt"); }), "outside");
+  write_text(dir / "gt.txt", "1e300 0 0 0 0 0 0 1\n");
+  EXPECT_CONTAINS(input_error_of([&] { read_euroc_groundtruth(dir / "gt.txt"); }), "outside");
+  write_text(dir / "gt.txt", "-1.5e0 0 0 0 0 0 0 1\n");  // signed: double path, still exact here
+  EXPECT_EQ(read_euroc_groundtruth(dir / "gt.txt")[0].timestamp_ns, -1500000000);
+
+  write_text(dir / "gt.csv", "99999999999999999999,0,0,0,1,0,0,0\n");
+  EXPECT_CONTAINS(input_error_of([&] { read_euroc_groundtruth(dir / "gt.csv"); }), "64 bits");
+  write_text(dir / "gt.csv", "1.5e9,0,0,0,1,0,0,0\n");
+  EXPECT_CONTAINS(input_error_of([&] { read_euroc_groundtruth(dir / "gt.csv"); }), "integer");
+  write_text(dir / "gt.csv", "1403715273262142977,0,0,0,1,0,0,0\n");  // odd: not a double
+  EXPECT_EQ(read_euroc_groundtruth(dir / "gt.csv")[0].timestamp_ns, 1403715273262142977);
+}
+
 TEST(EurocGroundTruth, NearestSampleWithin20Ms) {
   std::vector<StampedPose> trajectory(2);
   trajectory[0].timestamp_ns = 0;
