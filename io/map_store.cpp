@@ -3,7 +3,10 @@
 #include <spdlog/spdlog.h>
 
 #include <sqlite3.h>
+#include <zlib.h>
 
+#include <algorithm>
+#include <array>
 #include <charconv>
 #include <cstring>
 #include <fstream>
@@ -19,8 +22,10 @@ namespace {
 constexpr int kBusyTimeoutMs = 5000;
 
 constexpr const char* kFormat = "planecell-map";
-constexpr const char* kVersion = "4";  ///< 4: frames.input_pose (pose before refinement)
-constexpr const char* kMigratableVersion = "3";  ///< 3: as 4 without frames.input_pose
+constexpr const char* kVersion = "5";  ///< 5: surface blobs deflated, no cells_by_surface index
+/// Versions upgraded in place: 4 (surface blobs raw, an unused cells_by_surface index) and 3
+/// (as 4 without frames.input_pose).
+constexpr std::array<const char*, 2> kMigratableVersions = {"3", "4"};
 
 constexpr const char* kSchema = R"sql(
 CREATE TABLE meta(key TEXT PRIMARY KEY, value TEXT NOT NULL);
@@ -29,7 +34,6 @@ CREATE TABLE frames(frame_id INTEGER PRIMARY KEY, pose BLOB NOT NULL, input_cell
 CREATE TABLE cells(id INTEGER PRIMARY KEY, frame_id INTEGER NOT NULL, surface INTEGER NOT NULL,
                    plane BLOB NOT NULL, vertices_m BLOB NOT NULL, mean_rgb BLOB NOT NULL,
                    depth_sigma_m REAL NOT NULL);
-CREATE INDEX cells_by_surface ON cells(surface);
 CREATE VIRTUAL TABLE cell_bounds USING rtree(id, min_x, max_x, min_y, max_y, min_z, max_z);
 CREATE TABLE surfaces(id INTEGER PRIMARY KEY, data BLOB NOT NULL);
 CREATE TABLE merges(seq INTEGER PRIMARY KEY AUTOINCREMENT, frame_id INTEGER NOT NULL,
@@ -87,7 +91,7 @@ class Reader {
   std::string what_;
 };
 
-std::vector<std::uint8_t> encode_surface(const map::Surface& s) {
+std::vector<std::uint8_t> encode_surface_raw(const map::Surface& s) {
   Writer w;
   w.put_matrix(s.plane.normal);
   w.put(s.plane.offset);
@@ -116,7 +120,7 @@ std::vector<std::uint8_t> encode_surface(const map::Surface& s) {
   return std::move(w.bytes);
 }
 
-map::Surface decode_surface(std::uint32_t id, const void* data, std::size_t size, const std::string& where) {
+map::Surface decode_surface_raw(std::uint32_t id, const void* data, std::size_t size, const std::string& where) {
   Reader r(data, size, where + ": surface " + std::to_string(id));
   map::Surface s;
   s.id = id;
@@ -153,6 +157,46 @@ map::Surface decode_surface(std::uint32_t id, const void* data, std::size_t size
   }
   r.expect_end();
   return s;
+}
+
+/// Largest raw surface encoding a stored blob may claim (a corrupt size is refused, not allocated):
+/// 64 MiB ≈ 490 000 footprint tiles, tens of km² at the default 10 cm footprint resolution.
+constexpr std::uint32_t kMaxRawSurfaceBytes = 64u << 20;
+
+/// Surface blob (version 5): the raw encoding's size (u32, little-endian), then the raw encoding
+/// deflated as a zlib stream (RFC 1950, what zlib's compress2/uncompress read and write). The
+/// footprint's occupancy bits and the 64-bin histogram are mostly zeros and runs: a stored surface
+/// takes about half the bytes of the raw encoding. Lossless: the decoded surface is bit-identical.
+std::vector<std::uint8_t> encode_surface(const map::Surface& s) {
+  const std::vector<std::uint8_t> raw = encode_surface_raw(s);
+  if (raw.size() > kMaxRawSurfaceBytes)
+    throw StorageError("surface " + std::to_string(s.id) + ": encoding of " + std::to_string(raw.size()) +
+                       " bytes exceeds the store's limit of " + std::to_string(kMaxRawSurfaceBytes));
+  std::vector<std::uint8_t> out(sizeof(std::uint32_t) + compressBound(static_cast<uLong>(raw.size())));
+  const auto raw_size = static_cast<std::uint32_t>(raw.size());
+  std::memcpy(out.data(), &raw_size, sizeof(raw_size));
+  auto deflated = static_cast<uLongf>(out.size() - sizeof(raw_size));
+  if (compress2(out.data() + sizeof(raw_size), &deflated, raw.data(), raw.size(), Z_DEFAULT_COMPRESSION) != Z_OK)
+    throw StorageError("surface " + std::to_string(s.id) + ": zlib cannot deflate its encoding");
+  out.resize(sizeof(raw_size) + deflated);
+  return out;
+}
+
+map::Surface decode_surface(std::uint32_t id, const void* data, std::size_t size, const std::string& where) {
+  const std::string what = where + ": surface " + std::to_string(id);
+  Reader r(data, size, what);
+  const auto raw_size = r.get<std::uint32_t>();
+  if (raw_size > kMaxRawSurfaceBytes)
+    throw StorageError(what + ": claims " + std::to_string(raw_size) + " bytes, beyond the limit of " +
+                       std::to_string(kMaxRawSurfaceBytes));
+  std::vector<std::uint8_t> raw(raw_size);
+  auto inflated = static_cast<uLongf>(raw.size());
+  const int rc = uncompress(raw.data(), &inflated, static_cast<const Bytef*>(data) + sizeof(raw_size),
+                            static_cast<uLong>(size - sizeof(raw_size)));
+  if (rc != Z_OK || inflated != raw_size)
+    throw StorageError(what + ": compressed data is corrupt (zlib: " +
+                       (rc == Z_OK ? std::string("size mismatch") : std::string(zError(rc))) + ")");
+  return decode_surface_raw(id, raw.data(), raw.size(), where);
 }
 
 template <class Vec>
@@ -278,6 +322,7 @@ MapStore::MapStore(const std::filesystem::path& path) : path_(path) {
   };
   open(exists ? path : creating, SQLITE_OPEN_READWRITE | (exists ? 0 : SQLITE_OPEN_CREATE));
   bool migrate = false;
+  std::string from_version;
   try {
     if (exists) {
       // Read-only checks first: integrity, then the format marker.
@@ -301,25 +346,39 @@ MapStore::MapStore(const std::filesystem::path& path) : path_(path) {
         fail("a foreign SQLite database (format is not 'planecell-map'); left unchanged");
       Statement version(db_, "SELECT value FROM meta WHERE key='version'", *this);
       const std::string found = version.step(rc) ? version.text(0) : std::string();
-      if (found != kVersion && found != kMigratableVersion)
+      migrate = std::find(kMigratableVersions.begin(), kMigratableVersions.end(), found) !=
+                kMigratableVersions.end();
+      if (found != kVersion && !migrate)
         fail("planecell map version '" + found + "' is not the version " + kVersion +
              " this build reads (written by another planecell release; left unchanged)");
-      migrate = found == kMigratableVersion;
+      from_version = found;
     }
     exec("PRAGMA journal_mode=WAL");
     exec("PRAGMA synchronous=NORMAL");
-    if (migrate) {  // version 3 → 4 in one transaction: frames gain input_pose (NULL for old frames)
+    if (migrate) {  // version 3 or 4 → 5 in one transaction
       exec("BEGIN IMMEDIATE");
       try {
-        exec("ALTER TABLE frames ADD COLUMN input_pose BLOB");
-        exec("UPDATE meta SET value = '4' WHERE key = 'version'");
+        if (from_version == "3") exec("ALTER TABLE frames ADD COLUMN input_pose BLOB");  // NULL: as given
+        exec("DROP INDEX IF EXISTS cells_by_surface");
+        Statement read(db_, "SELECT id, data FROM surfaces", *this);
+        Statement write(db_, "UPDATE surfaces SET data = ? WHERE id = ?", *this);
+        int rc = SQLITE_OK;
+        while (read.step(rc)) {
+          const auto id = static_cast<std::uint32_t>(read.integer(0));
+          const map::Surface surface = decode_surface_raw(id, read.blob(1), read.blob_size(1), path.string());
+          write.bind(1, encode_surface(surface)).bind(2, std::int64_t{id});
+          run(write, [&] { fail("cannot rewrite surface " + std::to_string(id)); });
+        }
+        if (rc != SQLITE_DONE) fail("cannot read surfaces");
+        exec("UPDATE meta SET value = '5' WHERE key = 'version'");
         exec("COMMIT");
       } catch (...) {
         sqlite3_exec(db_, "ROLLBACK", nullptr, nullptr, nullptr);
         throw;
       }
-      spdlog::info("map store '{}': upgraded from version {} to {} (frames keep their input poses from now on)",
-                   path.string(), kMigratableVersion, kVersion);
+      spdlog::info("map store '{}': upgraded from version {} to {} (surfaces deflated{})", path.string(),
+                   from_version, kVersion,
+                   from_version == "3" ? "; frames keep their input poses from now on" : "");
     }
     if (!exists) {
       exec("BEGIN IMMEDIATE");

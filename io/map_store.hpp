@@ -4,7 +4,8 @@
 /// Schema: meta(key, value) with format = 'planecell-map', version and the map's id counters;
 /// frames(frame_id, pose, counts, input_pose: the odometry pose before refinement, NULL when the
 /// pose was used as given); cells(id, frame_id, surface, fields as columns, arrays as
-/// little-endian blobs); cell_bounds (R*Tree on each cell's 3D bounds); surfaces(id, blob);
+/// little-endian blobs); cell_bounds (R*Tree on each cell's 3D bounds); surfaces(id, blob: the
+/// raw encoding's size as u32, then that encoding deflated by zlib, about half its bytes);
 /// merges(seq, frame_id, absorbed, into_surface). Values are stored exactly (IEEE bytes), so a
 /// reopened store rebuilds a GlobalMap equal to the one committed. Other tools can read it while
 /// it is written (their brief locks are waited out for up to 5 s before a StorageError).
@@ -35,8 +36,9 @@ class MapStore {
  public:
   /// Opens the store at `path`, creating it when the file does not exist. An existing file that is
   /// not a planecell map (not SQLite, a foreign SQLite database, truncated or corrupt) raises
-  /// StorageError naming the path and is left untouched. A store of the previous version (3, before
-  /// frames kept their input poses) is upgraded in place in one transaction.
+  /// StorageError naming the path and is left untouched. A store of an earlier version is upgraded in
+  /// place in one transaction: 4 (raw surface blobs, an unused cells_by_surface index) and 3 (as 4,
+  /// and before frames kept their input poses).
   explicit MapStore(const std::filesystem::path& path);
   ~MapStore();
   MapStore(const MapStore&) = delete;

@@ -8,7 +8,7 @@ PACKAGES=(
   libeigen3-dev libopencv-dev libopencv-contrib-dev liboctomap-dev libceres-dev
   libspdlog-dev libcli11-dev liblcm-dev liblcm-bin libreaderwriterqueue-dev
   libgtest-dev libgmock-dev libbenchmark-dev libyaml-cpp-dev libsqlite3-dev sqlite3 libboost-dev
-  nlohmann-json3-dev iproute2
+  nlohmann-json3-dev zlib1g-dev iproute2
   clang-14 libclang-rt-14-dev   # libFuzzer + sanitizer runtimes for scripts/fuzz.sh
 )
 

@@ -5,8 +5,10 @@
 #include <sys/resource.h>
 #include <sys/wait.h>
 #include <unistd.h>
+#include <zlib.h>
 
 #include <csignal>
+#include <cstring>
 #include <fstream>
 #include <functional>
 #include <sstream>
@@ -14,6 +16,7 @@
 #include "support/planecell_fixtures.hpp"
 #include "core/error.hpp"
 #include "io/map_store.hpp"
+#include "support/expect_error.hpp"
 #include "support/test_data.hpp"
 
 namespace planecell::io {
@@ -219,7 +222,7 @@ TEST(MapStoreTest, OtherFormatVersionIsRejectedByNameAndLeftUnchanged) {
     FAIL() << "expected StorageError";
   } catch (const StorageError& e) {
     const std::string what = e.what();
-    EXPECT_NE(what.find("version '2' is not the version 4"), std::string::npos) << what;
+    EXPECT_NE(what.find("version '2' is not the version 5"), std::string::npos) << what;
     EXPECT_NE(what.find(path.string()), std::string::npos) << what;
   }
   EXPECT_EQ(read_bytes(path), before);
@@ -242,6 +245,84 @@ TEST(MapStoreTest, RefinedFramesKeepTheirInputPoseBesideTheRefinedOne) {
   EXPECT_FALSE(store.input_pose(7).has_value());  // no such frame
 }
 
+/// Rewrites a current (version 5) store as an earlier release wrote it: surface blobs raw (the
+/// deflated stream after the 4-byte raw size, inflated here with zlib directly, which also checks
+/// the documented layout), the cells_by_surface index, and for version 3 no frames.input_pose.
+void make_legacy_store(const std::filesystem::path& path, int version) {
+  sqlite3* db = nullptr;
+  ASSERT_EQ(sqlite3_open(path.c_str(), &db), SQLITE_OK);
+  std::vector<std::pair<std::int64_t, std::vector<std::uint8_t>>> raw_surfaces;
+  sqlite3_stmt* read = nullptr;
+  ASSERT_EQ(sqlite3_prepare_v2(db, "SELECT id, data FROM surfaces", -1, &read, nullptr), SQLITE_OK);
+  while (sqlite3_step(read) == SQLITE_ROW) {
+    const auto* blob = static_cast<const std::uint8_t*>(sqlite3_column_blob(read, 1));
+    const auto size = static_cast<std::size_t>(sqlite3_column_bytes(read, 1));
+    ASSERT_GT(size, 4u);
+    std::uint32_t raw_size = 0;
+    std::memcpy(&raw_size, blob, 4);
+    std::vector<std::uint8_t> raw(raw_size);
+    uLongf inflated = raw_size;
+    ASSERT_EQ(uncompress(raw.data(), &inflated, blob + 4, size - 4), Z_OK);
+    ASSERT_EQ(inflated, raw_size);
+    EXPECT_LT(size, raw.size()) << "a deflated surface is smaller than its raw encoding";
+    raw_surfaces.emplace_back(sqlite3_column_int64(read, 0), std::move(raw));
+  }
+  sqlite3_finalize(read);
+  ASSERT_FALSE(raw_surfaces.empty());
+  sqlite3_stmt* write = nullptr;
+  ASSERT_EQ(sqlite3_prepare_v2(db, "UPDATE surfaces SET data = ? WHERE id = ?", -1, &write, nullptr), SQLITE_OK);
+  for (const auto& [id, raw] : raw_surfaces) {
+    sqlite3_bind_blob(write, 1, raw.data(), static_cast<int>(raw.size()), SQLITE_TRANSIENT);
+    sqlite3_bind_int64(write, 2, id);
+    ASSERT_EQ(sqlite3_step(write), SQLITE_DONE);
+    sqlite3_reset(write);
+  }
+  sqlite3_finalize(write);
+  const std::string sql = "CREATE INDEX cells_by_surface ON cells(surface); UPDATE meta SET value='" +
+                          std::to_string(version) + "' WHERE key='version';" +
+                          (version == 3 ? "ALTER TABLE frames DROP COLUMN input_pose;" : "");
+  ASSERT_EQ(sqlite3_exec(db, sql.c_str(), nullptr, nullptr, nullptr), SQLITE_OK) << sqlite3_errmsg(db);
+  sqlite3_close(db);
+}
+
+/// The schema's index names (sqlite_master), to see the upgrade drop cells_by_surface.
+std::vector<std::string> index_names(const std::filesystem::path& path) {
+  sqlite3* db = nullptr;
+  EXPECT_EQ(sqlite3_open(path.c_str(), &db), SQLITE_OK);
+  std::vector<std::string> names;
+  sqlite3_exec(db, "SELECT name FROM sqlite_master WHERE type='index' AND name NOT LIKE 'sqlite_%'",
+               [](void* out, int, char** values, char**) {
+                 static_cast<std::vector<std::string>*>(out)->push_back(values[0]);
+                 return 0;
+               },
+               &names, nullptr);
+  sqlite3_close(db);
+  return names;
+}
+
+TEST(MapStoreTest, VersionFourStoreIsUpgradedInPlaceAndResumes) {
+  test::ScratchDir dir;
+  const auto path = dir / "v4.db";
+  map::GlobalMap written;
+  {
+    MapStore store(path);
+    drive(written, 4, &store);
+    store.commit_frame(4, frame_pose(4), written.integrate(4, frame_pose(4), frame_cells(4)), written,
+                       frame_pose(3));
+  }
+  make_legacy_store(path, 4);
+  ASSERT_EQ(index_names(path), std::vector<std::string>{"cells_by_surface"});
+  {
+    MapStore store(path);
+    EXPECT_EQ(store.frame_count(), 5u);
+    EXPECT_TRUE(store.input_pose(4)->isApprox(frame_pose(3), 0.0));  // kept through the upgrade
+    EXPECT_TRUE(load_map(store).same_content(written));
+  }
+  EXPECT_TRUE(index_names(path).empty());
+  MapStore again(path);  // version 5 now: read as it is
+  EXPECT_TRUE(load_map(again).same_content(written));
+}
+
 TEST(MapStoreTest, VersionThreeStoreIsUpgradedInPlaceAndResumes) {
   test::ScratchDir dir;
   const auto path = dir / "v3.db";
@@ -250,14 +331,7 @@ TEST(MapStoreTest, VersionThreeStoreIsUpgradedInPlaceAndResumes) {
     MapStore store(path);
     drive(written, 3, &store);
   }
-  // Make it what version 3 wrote: frames without input_pose, version '3'.
-  sqlite3* db = nullptr;
-  ASSERT_EQ(sqlite3_open(path.c_str(), &db), SQLITE_OK);
-  ASSERT_EQ(sqlite3_exec(db, "ALTER TABLE frames DROP COLUMN input_pose; UPDATE meta SET value='3' WHERE key='version';",
-                         nullptr, nullptr, nullptr),
-            SQLITE_OK)
-      << sqlite3_errmsg(db);
-  sqlite3_close(db);
+  make_legacy_store(path, 3);
   {
     MapStore store(path);
     EXPECT_EQ(store.frame_count(), 3u);
@@ -270,10 +344,76 @@ TEST(MapStoreTest, VersionThreeStoreIsUpgradedInPlaceAndResumes) {
     store.commit_frame(3, frame_pose(3), report, resumed, frame_pose(2));
     EXPECT_TRUE(store.input_pose(3)->isApprox(frame_pose(2), 0.0));
   }
-  // Reopened: version 4 now, no second upgrade.
+  // Reopened: version 5 now, no second upgrade.
   MapStore again(path);
   EXPECT_EQ(again.frame_count(), 4u);
   EXPECT_TRUE(again.input_pose(3)->isApprox(frame_pose(2), 0.0));
+}
+
+/// Applies `edit` to the blob of the stored surface with the smallest id.
+void edit_first_surface(const std::filesystem::path& path,
+                        const std::function<void(std::vector<std::uint8_t>&)>& edit) {
+  sqlite3* db = nullptr;
+  ASSERT_EQ(sqlite3_open(path.c_str(), &db), SQLITE_OK);
+  sqlite3_stmt* read = nullptr;
+  ASSERT_EQ(sqlite3_prepare_v2(db, "SELECT id, data FROM surfaces ORDER BY id LIMIT 1", -1, &read, nullptr),
+            SQLITE_OK);
+  ASSERT_EQ(sqlite3_step(read), SQLITE_ROW);
+  const std::int64_t id = sqlite3_column_int64(read, 0);
+  const auto* blob = static_cast<const std::uint8_t*>(sqlite3_column_blob(read, 1));
+  std::vector<std::uint8_t> data(blob, blob + sqlite3_column_bytes(read, 1));
+  sqlite3_finalize(read);
+  edit(data);
+  sqlite3_stmt* write = nullptr;
+  ASSERT_EQ(sqlite3_prepare_v2(db, "UPDATE surfaces SET data = ? WHERE id = ?", -1, &write, nullptr), SQLITE_OK);
+  sqlite3_bind_blob(write, 1, data.data(), static_cast<int>(data.size()), SQLITE_TRANSIENT);
+  sqlite3_bind_int64(write, 2, id);
+  ASSERT_EQ(sqlite3_step(write), SQLITE_DONE);
+  sqlite3_finalize(write);
+  sqlite3_close(db);
+}
+
+/// A surface whose deflated bytes were damaged (zlib's Adler-32 catches a flipped byte) or whose
+/// raw size lies is a StorageError naming the surface, not a wrong map.
+TEST(MapStoreTest, CorruptDeflatedSurfaceIsNamed) {
+  test::ScratchDir dir;
+  const auto path = dir / "map.db";
+  const auto load_error = [&] {
+    try {
+      MapStore store(path);
+      (void)store.load();
+    } catch (const StorageError& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  const auto set_raw_size = [](std::uint32_t size) {
+    return [size](std::vector<std::uint8_t>& data) { std::memcpy(data.data(), &size, 4); };
+  };
+  {
+    map::GlobalMap map;
+    MapStore store(path);
+    drive(map, 3, &store);
+  }
+  std::uint32_t raw_size = 0;
+  edit_first_surface(path, [&](std::vector<std::uint8_t>& data) {
+    std::memcpy(&raw_size, data.data(), 4);
+    data[data.size() / 2] ^= 0x55;
+  });
+  EXPECT_CONTAINS(load_error(), "compressed data is corrupt");
+  edit_first_surface(path, [](std::vector<std::uint8_t>& data) { data[data.size() / 2] ^= 0x55; });  // mended
+  EXPECT_EQ(load_error(), "no error");
+
+  edit_first_surface(path, set_raw_size(raw_size + 1));  // inflates to fewer bytes than claimed
+  EXPECT_CONTAINS(load_error(), "size mismatch");
+  edit_first_surface(path, set_raw_size(raw_size - 1));  // the inflated bytes do not fit
+  EXPECT_CONTAINS(load_error(), "compressed data is corrupt");
+  edit_first_surface(path, set_raw_size(0xFFFFFFFFu));  // refused before any allocation
+  const std::string huge = load_error();
+  EXPECT_CONTAINS(huge, "claims 4294967295 bytes, beyond the limit");
+  EXPECT_CONTAINS(huge, "surface ");
+  edit_first_surface(path, [](std::vector<std::uint8_t>& data) { data.resize(3); });
+  EXPECT_CONTAINS(load_error(), "truncated");
 }
 
 TEST(MapStoreTest, TruncatedCopyIsRejected) {
@@ -306,7 +446,7 @@ TEST(MapStoreTest, CompactionShrinksTheFileAndKeepsTheMapWritable) {
   map::GlobalMap map;
   {
     MapStore store(path);
-    drive(map, 30, &store, 8);
+    drive(map, 120, &store, 24);
   }
   const auto before = std::filesystem::file_size(path);
   {
@@ -314,13 +454,14 @@ TEST(MapStoreTest, CompactionShrinksTheFileAndKeepsTheMapWritable) {
     store.compact();
   }
   const auto after = std::filesystem::file_size(path);
-  // Surfaces rewritten frame after frame left free and half-empty pages behind.
+  // Surfaces rewritten frame after frame (the road's grows past a page: 120 frames, its deflated
+  // blob then spills over) left free and half-empty pages behind.
   EXPECT_LT(after, before);
   MapStore store(path);
-  EXPECT_EQ(store.frame_count(), 30u);
+  EXPECT_EQ(store.frame_count(), 120u);
   EXPECT_TRUE(load_map(store).same_content(map));
-  const auto report = map.integrate(30, frame_pose(30), frame_cells(30, 8));
-  store.commit_frame(30, frame_pose(30), report, map);
+  const auto report = map.integrate(120, frame_pose(120), frame_cells(120, 24));
+  store.commit_frame(120, frame_pose(120), report, map);
   EXPECT_TRUE(load_map(store).same_content(map));
 }
 
