@@ -360,16 +360,24 @@ MapStore::MapStore(const std::filesystem::path& path) : path_(path) {
       try {
         if (from_version == "3") exec("ALTER TABLE frames ADD COLUMN input_pose BLOB");  // NULL: as given
         exec("DROP INDEX IF EXISTS cells_by_surface");
-        Statement read(db_, "SELECT id, data FROM surfaces", *this);
-        Statement write(db_, "UPDATE surfaces SET data = ? WHERE id = ?", *this);
+        // The ids first: rows updated while a SELECT over their table is pending may be seen twice.
+        std::vector<std::uint32_t> ids;
         int rc = SQLITE_OK;
-        while (read.step(rc)) {
-          const auto id = static_cast<std::uint32_t>(read.integer(0));
-          const map::Surface surface = decode_surface_raw(id, read.blob(1), read.blob_size(1), path.string());
+        {
+          Statement list(db_, "SELECT id FROM surfaces", *this);
+          while (list.step(rc)) ids.push_back(static_cast<std::uint32_t>(list.integer(0)));
+          if (rc != SQLITE_DONE) fail("cannot list surfaces");
+        }
+        Statement read(db_, "SELECT data FROM surfaces WHERE id = ?", *this);
+        Statement write(db_, "UPDATE surfaces SET data = ? WHERE id = ?", *this);
+        for (const std::uint32_t id : ids) {
+          read.bind(1, std::int64_t{id});
+          if (!read.step(rc)) fail("cannot read surface " + std::to_string(id));
+          const map::Surface surface = decode_surface_raw(id, read.blob(0), read.blob_size(0), path.string());
+          read.reset();
           write.bind(1, encode_surface(surface)).bind(2, std::int64_t{id});
           run(write, [&] { fail("cannot rewrite surface " + std::to_string(id)); });
         }
-        if (rc != SQLITE_DONE) fail("cannot read surfaces");
         exec("UPDATE meta SET value = '5' WHERE key = 'version'");
         exec("COMMIT");
       } catch (...) {
