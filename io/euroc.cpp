@@ -102,9 +102,9 @@ std::int64_t seconds_text_to_ns(const std::string& text, const std::string& wher
   return whole_seconds * 1'000'000'000LL + std::stoll(fraction);
 }
 
-/// Leading integer nanoseconds of a EuRoC csv row ("1403715273262142976,4,5,...") read exactly
-/// (a double would round it to a multiple of 256 ns); a non-integer or out-of-int64 stamp is an
-/// InputError.
+/// Leading integer nanoseconds of a EuRoC csv row (image lists, ground truth:
+/// "1403715273262142976,4,5,...") read exactly (a double would round it to a multiple of 256 ns);
+/// a non-integer or out-of-int64 stamp is an InputError.
 std::int64_t nanoseconds_text_to_ns(const std::string& text, const std::string& where) {
   const std::string token = text.substr(0, text.find_first_of(" \t,"));
   std::int64_t ns = 0;
@@ -136,14 +136,7 @@ CameraList read_camera_list(const fs::path& cam_dir) {
     const std::string where =
         "EuRoC image list '" + csv.string() + "' line " + std::to_string(line_number);
     if (comma == std::string::npos) throw InputError(where + ": expected 'timestamp_ns,filename'");
-    std::int64_t t = 0;
-    try {
-      std::size_t used = 0;
-      t = std::stoll(line.substr(0, comma), &used);
-      if (used != comma) throw std::invalid_argument("trailing");
-    } catch (const std::logic_error&) {
-      throw InputError(where + ": timestamp '" + line.substr(0, comma) + "' is not an integer");
-    }
+    const std::int64_t t = nanoseconds_text_to_ns(line.substr(0, comma), where);
     std::string name = line.substr(comma + 1);
     name.erase(0, name.find_first_not_of(" \t"));
     name.erase(name.find_last_not_of(" \t") + 1);

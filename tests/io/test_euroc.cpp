@@ -271,6 +271,13 @@ TEST(EurocSequence, MissingPartsAreNamed) {
     write_text(f.root / "mav0" / "cam1" / "data.csv", "#timestamp [ns],filename\n5,x.png\n");
     EXPECT_CONTAINS(input_error_of([&] { open_euroc(f.root); }), "pair");
   }
+  {
+    EurocFixture f;
+    write_text(f.root / "mav0" / "cam0" / "data.csv", "#timestamp [ns],filename\n1.5e9,x.png\n");
+    const std::string message = input_error_of([&] { open_euroc(f.root); });
+    EXPECT_CONTAINS(message, "cam0");
+    EXPECT_CONTAINS(message, "line 2: timestamp '1.5e9' is not an integer");
+  }
   EXPECT_CONTAINS(input_error_of([] { open_euroc("/no/euroc/here"); }), "/no/euroc/here");
 }
 

@@ -245,39 +245,59 @@ TEST(MapStoreTest, RefinedFramesKeepTheirInputPoseBesideTheRefinedOne) {
   EXPECT_FALSE(store.input_pose(7).has_value());  // no such frame
 }
 
+/// Applies `edit` to the stored surface blobs (all, or only the one with the smallest id) and
+/// writes them back; returns how many were edited.
+std::size_t edit_surfaces(const std::filesystem::path& path,
+                          const std::function<void(std::vector<std::uint8_t>&)>& edit, bool first_only = false) {
+  sqlite3* db = nullptr;
+  EXPECT_EQ(sqlite3_open(path.c_str(), &db), SQLITE_OK);
+  std::vector<std::pair<std::int64_t, std::vector<std::uint8_t>>> blobs;
+  sqlite3_stmt* read = nullptr;
+  const char* select = first_only ? "SELECT id, data FROM surfaces ORDER BY id LIMIT 1" : "SELECT id, data FROM surfaces";
+  EXPECT_EQ(sqlite3_prepare_v2(db, select, -1, &read, nullptr), SQLITE_OK);
+  while (sqlite3_step(read) == SQLITE_ROW) {
+    const auto* blob = static_cast<const std::uint8_t*>(sqlite3_column_blob(read, 1));
+    blobs.emplace_back(sqlite3_column_int64(read, 0),
+                       std::vector<std::uint8_t>(blob, blob + sqlite3_column_bytes(read, 1)));
+  }
+  sqlite3_finalize(read);
+  sqlite3_stmt* write = nullptr;
+  EXPECT_EQ(sqlite3_prepare_v2(db, "UPDATE surfaces SET data = ? WHERE id = ?", -1, &write, nullptr), SQLITE_OK);
+  for (auto& [id, data] : blobs) {
+    edit(data);
+    sqlite3_bind_blob(write, 1, data.data(), static_cast<int>(data.size()), SQLITE_TRANSIENT);
+    sqlite3_bind_int64(write, 2, id);
+    EXPECT_EQ(sqlite3_step(write), SQLITE_DONE);
+    sqlite3_reset(write);
+  }
+  sqlite3_finalize(write);
+  sqlite3_close(db);
+  return blobs.size();
+}
+
+void edit_first_surface(const std::filesystem::path& path,
+                        const std::function<void(std::vector<std::uint8_t>&)>& edit) {
+  ASSERT_EQ(edit_surfaces(path, edit, true), 1u);
+}
+
 /// Rewrites a current (version 5) store as an earlier release wrote it: surface blobs raw (the
 /// deflated stream after the 4-byte raw size, inflated here with zlib directly, which also checks
 /// the documented layout), the cells_by_surface index, and for version 3 no frames.input_pose.
 void make_legacy_store(const std::filesystem::path& path, int version) {
-  sqlite3* db = nullptr;
-  ASSERT_EQ(sqlite3_open(path.c_str(), &db), SQLITE_OK);
-  std::vector<std::pair<std::int64_t, std::vector<std::uint8_t>>> raw_surfaces;
-  sqlite3_stmt* read = nullptr;
-  ASSERT_EQ(sqlite3_prepare_v2(db, "SELECT id, data FROM surfaces", -1, &read, nullptr), SQLITE_OK);
-  while (sqlite3_step(read) == SQLITE_ROW) {
-    const auto* blob = static_cast<const std::uint8_t*>(sqlite3_column_blob(read, 1));
-    const auto size = static_cast<std::size_t>(sqlite3_column_bytes(read, 1));
-    ASSERT_GT(size, 4u);
+  const std::size_t surfaces = edit_surfaces(path, [](std::vector<std::uint8_t>& data) {
+    ASSERT_GT(data.size(), 4u);
     std::uint32_t raw_size = 0;
-    std::memcpy(&raw_size, blob, 4);
+    std::memcpy(&raw_size, data.data(), 4);
     std::vector<std::uint8_t> raw(raw_size);
     uLongf inflated = raw_size;
-    ASSERT_EQ(uncompress(raw.data(), &inflated, blob + 4, size - 4), Z_OK);
+    ASSERT_EQ(uncompress(raw.data(), &inflated, data.data() + 4, data.size() - 4), Z_OK);
     ASSERT_EQ(inflated, raw_size);
-    EXPECT_LT(size, raw.size()) << "a deflated surface is smaller than its raw encoding";
-    raw_surfaces.emplace_back(sqlite3_column_int64(read, 0), std::move(raw));
-  }
-  sqlite3_finalize(read);
-  ASSERT_FALSE(raw_surfaces.empty());
-  sqlite3_stmt* write = nullptr;
-  ASSERT_EQ(sqlite3_prepare_v2(db, "UPDATE surfaces SET data = ? WHERE id = ?", -1, &write, nullptr), SQLITE_OK);
-  for (const auto& [id, raw] : raw_surfaces) {
-    sqlite3_bind_blob(write, 1, raw.data(), static_cast<int>(raw.size()), SQLITE_TRANSIENT);
-    sqlite3_bind_int64(write, 2, id);
-    ASSERT_EQ(sqlite3_step(write), SQLITE_DONE);
-    sqlite3_reset(write);
-  }
-  sqlite3_finalize(write);
+    EXPECT_LT(data.size(), raw.size()) << "a deflated surface is smaller than its raw encoding";
+    data = std::move(raw);
+  });
+  ASSERT_GT(surfaces, 0u);
+  sqlite3* db = nullptr;
+  ASSERT_EQ(sqlite3_open(path.c_str(), &db), SQLITE_OK);
   const std::string sql = "CREATE INDEX cells_by_surface ON cells(surface); UPDATE meta SET value='" +
                           std::to_string(version) + "' WHERE key='version';" +
                           (version == 3 ? "ALTER TABLE frames DROP COLUMN input_pose;" : "");
@@ -348,29 +368,6 @@ TEST(MapStoreTest, VersionThreeStoreIsUpgradedInPlaceAndResumes) {
   MapStore again(path);
   EXPECT_EQ(again.frame_count(), 4u);
   EXPECT_TRUE(again.input_pose(3)->isApprox(frame_pose(2), 0.0));
-}
-
-/// Applies `edit` to the blob of the stored surface with the smallest id.
-void edit_first_surface(const std::filesystem::path& path,
-                        const std::function<void(std::vector<std::uint8_t>&)>& edit) {
-  sqlite3* db = nullptr;
-  ASSERT_EQ(sqlite3_open(path.c_str(), &db), SQLITE_OK);
-  sqlite3_stmt* read = nullptr;
-  ASSERT_EQ(sqlite3_prepare_v2(db, "SELECT id, data FROM surfaces ORDER BY id LIMIT 1", -1, &read, nullptr),
-            SQLITE_OK);
-  ASSERT_EQ(sqlite3_step(read), SQLITE_ROW);
-  const std::int64_t id = sqlite3_column_int64(read, 0);
-  const auto* blob = static_cast<const std::uint8_t*>(sqlite3_column_blob(read, 1));
-  std::vector<std::uint8_t> data(blob, blob + sqlite3_column_bytes(read, 1));
-  sqlite3_finalize(read);
-  edit(data);
-  sqlite3_stmt* write = nullptr;
-  ASSERT_EQ(sqlite3_prepare_v2(db, "UPDATE surfaces SET data = ? WHERE id = ?", -1, &write, nullptr), SQLITE_OK);
-  sqlite3_bind_blob(write, 1, data.data(), static_cast<int>(data.size()), SQLITE_TRANSIENT);
-  sqlite3_bind_int64(write, 2, id);
-  ASSERT_EQ(sqlite3_step(write), SQLITE_DONE);
-  sqlite3_finalize(write);
-  sqlite3_close(db);
 }
 
 /// A surface whose deflated bytes were damaged (zlib's Adler-32 catches a flipped byte) or whose
