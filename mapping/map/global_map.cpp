@@ -608,15 +608,17 @@ void GlobalMap::bridge_surfaces(std::span<const Planecell* const> fresh, std::sp
   }
 }
 
-std::size_t GlobalMap::map_bytes() const {
-  std::size_t total = hash_map_bytes(cells_) + hash_map_bytes(surfaces_) + index_.bytes();
-  for (const auto& [id, cell] : cells_)
-    total += cell.vertices_m.capacity() * sizeof(Eigen::Vector3f);
+MapBytes GlobalMap::map_bytes_by_part() const {
+  MapBytes bytes;
+  bytes.cells = hash_map_bytes(cells_);
+  bytes.surfaces = hash_map_bytes(surfaces_);
+  bytes.index = index_.bytes();
+  for (const auto& [id, cell] : cells_) bytes.vertices += cell.vertices_m.capacity() * sizeof(Eigen::Vector3f);
   for (const auto& [id, surface] : surfaces_) {
-    total += surface.cells.capacity() * sizeof(std::uint32_t);
-    total += surface.footprint.bytes();
+    bytes.surfaces += surface.cells.capacity() * sizeof(std::uint32_t);
+    bytes.footprints += surface.footprint.bytes();
   }
-  return total;
+  return bytes;
 }
 
 void GlobalMap::prune_surface(std::uint32_t id, MergeReport& report) {

@@ -81,6 +81,16 @@ struct MergeReport {
   double merge_ms = 0.0;                        ///< wall time of integrate()
 };
 
+/// Heap bytes of the map's parts (GlobalMap::map_bytes_by_part).
+struct MapBytes {
+  std::size_t cells = 0;       ///< cell records and their hash table
+  std::size_t vertices = 0;    ///< cells' polygon vertices
+  std::size_t surfaces = 0;    ///< surface records, their hash table and member-id lists
+  std::size_t footprints = 0;  ///< surfaces' footprint tiles
+  std::size_t index = 0;       ///< spatial index buckets
+  std::size_t total() const { return cells + vertices + surfaces + footprints + index; }
+};
+
 /// Distance of a point to the nearest planecell.
 struct CellDistance {
   std::uint32_t cell_id = 0;
@@ -161,8 +171,10 @@ class GlobalMap {
   HeightMap height_map(const Eigen::Vector2d& origin_ab, int cols, int rows, double resolution_m) const;
 
   /// Heap bytes of cells, surfaces and the index (requested sizes: hash nodes and buckets,
-  /// vectors' capacity, footprint polygons; allocator headers not included).
-  std::size_t map_bytes() const;
+  /// vectors' capacity, footprint tiles; allocator headers not included): map_bytes_by_part().total().
+  std::size_t map_bytes() const { return map_bytes_by_part().total(); }
+  /// map_bytes() split by what holds the bytes.
+  MapBytes map_bytes_by_part() const;
 
   /// Rebuilds a map from stored cells and surfaces (io::MapStore). Throws StorageError when a
   /// cell names a missing surface.

@@ -254,7 +254,10 @@ std::string describe_map_store(const fs::path& path) {
         << " frames refined (odometry poses kept); correction mean " << std::setprecision(3)
         << sum_m / static_cast<double>(refined) << " m, max " << max_m << " m / " << max_deg << " deg\n"
         << std::setprecision(1);
-  out << "  map in RAM:   " << global_map.map_bytes() / 1024.0 << " KiB\n";
+  const map::MapBytes ram = global_map.map_bytes_by_part();
+  out << "  map in RAM:   " << ram.total() / 1024.0 << " KiB (cells " << ram.cells / 1024.0
+      << ", vertices " << ram.vertices / 1024.0 << ", surfaces " << ram.surfaces / 1024.0
+      << ", footprints " << ram.footprints / 1024.0 << ", index " << ram.index / 1024.0 << ")\n";
   out << "  file size:    " << fs::file_size(path) / 1024.0 << " KiB\n";
   return out.str();
 }
