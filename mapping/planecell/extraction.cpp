@@ -2,6 +2,7 @@
 /// update → planes again → vertices, 2D→3D, attributes, dense disparity.
 #include "mapping/planecell/extraction.hpp"
 
+#include <algorithm>
 #include <array>
 #include <chrono>
 #include <cmath>
@@ -52,35 +53,59 @@ void validate(const ExtractionConfig& c) {
          "photometric_min_cost_ratio in (0, 1]");
 }
 
-/// Mean colour (R, G, B) and normalised 64-bin colour histogram of every cell, in one raster
-/// pass; `area` is each cell's pixel count. Per row, the colour sums run over runs of equal
-/// labels (they vectorise) and the histogram bins are computed for the whole row first.
+/// Twice the distance of 8-bit value v from level 0's centre, 2v − 63 = 128·t before clamping:
+/// integers, so the weights are exact in 1/128.
+constexpr SoftBinTable make_soft_bin_table() {
+  SoftBinTable table;
+  for (int v = 0; v < 256; ++v) {
+    const int t128 = std::clamp(2 * v - 63, 0, 3 * 128);
+    SoftBin& bin = table[v];
+    bin.lo = std::min(t128 / 128, 2);
+    const auto hi = static_cast<std::uint32_t>(t128 - 128 * bin.lo);
+    bin.w = {kSoftBinUnit - hi, hi};
+  }
+  return table;
+}
+constexpr SoftBinTable kSoftBins = make_soft_bin_table();
+
+/// Mean colour (R, G, B) and normalised 64-bin soft colour histogram of every cell
+/// (colour_histogram_weights), in one raster pass; `area` is each cell's pixel count. Per row,
+/// the colour sums run over runs of equal labels (they vectorise).
 void describe_colours(const cv::Mat& bgr, const std::vector<std::int32_t>& labels,
                       const std::vector<std::int32_t>& area, std::vector<Planecell>& cells) {
   const std::size_t n = cells.size();
   std::vector<std::array<std::int64_t, 3>> rgb_sum(n, {0, 0, 0});
-  std::vector<std::int32_t> counts(n * kColourHistogramBins, 0);
-  std::vector<std::uint8_t> row_bins(bgr.cols);
+  std::vector<std::uint64_t> weights(n * kColourHistogramBins, 0);  // in units of 1/kSoftBinUnit³
+  const SoftBinTable& table = kSoftBins;
   for (int v = 0; v < bgr.rows; ++v) {
     const auto* px = bgr.ptr<cv::Vec3b>(v);
     const std::int32_t* row = labels.data() + static_cast<std::size_t>(v) * bgr.cols;
     for (int u = 0; u < bgr.cols;) {
       const int l = row[u];
       std::int64_t r = 0, g = 0, b = 0;
+      std::uint64_t* w = weights.data() + static_cast<std::size_t>(l) * kColourHistogramBins;
       for (; u < bgr.cols && row[u] == l; ++u) {
+        const SoftBin& sr = table[px[u][2]];
+        const SoftBin& sg = table[px[u][1]];
+        const SoftBin& sb = table[px[u][0]];
         r += px[u][2];
         g += px[u][1];
         b += px[u][0];
+        const int base = sr.lo * 16 + sg.lo * 4 + sb.lo;
+        for (int dr = 0; dr < 2; ++dr)
+          for (int dg = 0; dg < 2; ++dg) {
+            const std::uint32_t wrg = sr.w[dr] * sg.w[dg];
+            if (wrg == 0) continue;
+            w[base + dr * 16 + dg * 4] += static_cast<std::uint64_t>(wrg) * sb.w[0];
+            w[base + dr * 16 + dg * 4 + 1] += static_cast<std::uint64_t>(wrg) * sb.w[1];
+          }
       }
       rgb_sum[l][0] += r;
       rgb_sum[l][1] += g;
       rgb_sum[l][2] += b;
     }
-    for (int u = 0; u < bgr.cols; ++u)
-      row_bins[u] = static_cast<std::uint8_t>(colour_histogram_bin(px[u][0], px[u][1], px[u][2]));
-    for (int u = 0; u < bgr.cols; ++u)
-      ++counts[static_cast<std::size_t>(row[u]) * kColourHistogramBins + row_bins[u]];
   }
+  constexpr double kPixelWeight = static_cast<double>(kSoftBinUnit) * kSoftBinUnit * kSoftBinUnit;
   for (std::size_t k = 0; k < n; ++k) {
     Planecell& cell = cells[k];
     cell.histogram.fill(0.0f);
@@ -90,8 +115,8 @@ void describe_colours(const cv::Mat& bgr, const std::vector<std::int32_t>& label
                               static_cast<double>(rgb_sum[k][2]));
     cell.mean_rgb = (sum / area[k]).cast<float>();
     for (int q = 0; q < kColourHistogramBins; ++q)
-      cell.histogram[q] =
-          static_cast<float>(counts[k * kColourHistogramBins + q]) / static_cast<float>(area[k]);
+      cell.histogram[q] = static_cast<float>(static_cast<double>(weights[k * kColourHistogramBins + q]) /
+                                             (kPixelWeight * area[k]));
   }
 }
 
@@ -122,6 +147,8 @@ cv::Mat mark_outliers(const detail::SuperpixelState& s, double threshold_px) {
 }
 
 }  // namespace
+
+const SoftBinTable& soft_bin_table() { return kSoftBins; }
 
 PlanecellFrame extract_planecells(const cv::Mat& left, const cv::Mat& disparity,
                                   const StereoCamera& camera, const ExtractionConfig& config) {

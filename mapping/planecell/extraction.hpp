@@ -1,4 +1,6 @@
 #pragma once
+#include <array>
+#include <cstdint>
 /// Planecell extraction (paper §4.2–5.1): depth-aware superpixels, RANSAC planes, vertices, 2D→3D.
 #include <opencv2/core/mat.hpp>
 #include <vector>
@@ -30,10 +32,21 @@ struct PlanecellFrame {
   ExtractionTimings timings;
 };
 
-/// 64-bin colour histogram bin of a BGR pixel (RGB, 4 levels per channel): the cell histogram.
-inline int colour_histogram_bin(unsigned char b, unsigned char g, unsigned char r) {
-  return (r >> 6) * 16 + (g >> 6) * 4 + (b >> 6);
-}
+/// The cell colour histogram has 64 bins, 4 levels per channel (bin = 16·R + 4·G + B level),
+/// with level k centred on 64k + 31.5. A pixel is spread over the 2 × 2 × 2 bins around its
+/// colour (soft, trilinear binning): per channel value v, t = clamp((v − 31.5) / 64, 0, 3),
+/// lo = min(⌊t⌋, 2), and level lo gets weight 1 − (t − lo), level lo + 1 gets t − lo; the bin's
+/// weight is the product of its three channels'. A hard histogram jumps when a colour crosses a
+/// level edge (a surface of mean 128 lands in either half by a shade of light or texture blur);
+/// the soft one moves smoothly, so the CRF's histogram intersection compares colours, not edges.
+inline constexpr std::uint32_t kSoftBinUnit = 128;  ///< weights are in 1/128 (exact for 8-bit v)
+struct SoftBin {
+  int lo = 0;                           ///< lower level (0..2)
+  std::array<std::uint32_t, 2> w{};     ///< weights of lo and lo + 1, in 1/kSoftBinUnit; sum 128
+};
+/// soft bin of every 8-bit channel value
+using SoftBinTable = std::array<SoftBin, 256>;
+const SoftBinTable& soft_bin_table();
 
 /// Extracts the planecells of a frame from its left colour image (CV_8UC3 BGR, or CV_8UC1) and
 /// disparity (CV_32F, NaN = invalid, same size):

@@ -2,6 +2,7 @@
 /// disparity, planeless regions, 2D→3D exactness, and bad input.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <map>
@@ -34,6 +35,30 @@ struct Scene {
   std::vector<Region> regions;
   StereoCamera camera;
 };
+
+/// Level (0..3) of histogram bin q = 16·R + 4·G + B on channel c (0 = R, 1 = G, 2 = B).
+int level_of_bin(int q, int c) { return c == 0 ? q / 16 : c == 1 ? (q / 4) % 4 : q % 4; }
+
+/// Weight of level k for an 8-bit value v, from the definition (not the table):
+/// t = clamp((v − 31.5) / 64, 0, 3), lo = min(⌊t⌋, 2); lo gets 1 − (t − lo), lo + 1 gets t − lo.
+double level_weight(int v, int k) {
+  const double t = std::clamp((v - 31.5) / 64.0, 0.0, 3.0);
+  const int lo = std::min(static_cast<int>(std::floor(t)), 2);
+  return k == lo ? 1.0 - (t - lo) : k == lo + 1 ? t - lo : 0.0;
+}
+
+/// Trilinear weight of bin q for the colour (r, g, b).
+double soft_weight(int r, int g, int b, int q) {
+  return level_weight(r, level_of_bin(q, 0)) * level_weight(g, level_of_bin(q, 1)) *
+         level_weight(b, level_of_bin(q, 2));
+}
+
+/// Σ_q min(a_q, b_q).
+double colour_similarity_of(const ColourHistogram& a, const ColourHistogram& b) {
+  double sum = 0.0;
+  for (int q = 0; q < kColourHistogramBins; ++q) sum += std::min(a[q], b[q]);
+  return sum;
+}
 
 Scene make_scene(const SceneOptions& options) {
   constexpr int kW = 320, kH = 240;
@@ -268,7 +293,61 @@ TEST_P(PlanecellExtraction, CellColourAndHistogramDescribeTheRegion) {
     float sum = 0.0f;
     for (float h : cell.histogram) sum += h;
     EXPECT_NEAR(sum, 1.0f, 1e-4);
+    // Soft binning is linear between the end levels' centres: the histogram's mean level of a
+    // channel whose values all lie in [31.5, 223.5] is (mean value − 31.5) / 64.
+    const int noise = GetParam().colour_noise;
+    const int channel_of_rgb[3] = {2, 1, 0};  // R, G, B in the BGR region colour
+    for (int c = 0; c < 3; ++c) {
+      const int v = bgr[channel_of_rgb[c]];
+      if (v - noise < 32 || v + noise > 223) continue;
+      double level = 0.0;
+      for (int q = 0; q < kColourHistogramBins; ++q) level += cell.histogram[q] * level_of_bin(q, c);
+      EXPECT_NEAR(level, (cell.mean_rgb[c] - 31.5) / 64.0, 1e-4) << "cell " << k << " channel " << c;
+    }
+    // Without noise every pixel has the region's colour: the histogram is its trilinear weights.
+    if (noise == 0) {
+      for (int q = 0; q < kColourHistogramBins; ++q)
+        EXPECT_NEAR(cell.histogram[q], soft_weight(bgr[2], bgr[1], bgr[0], q), 1e-6) << "cell " << k << " bin " << q;
+    }
   }
+}
+
+/// A uniform colour a shade either side of a histogram level edge (127 and 129 on every channel)
+/// gives nearly the same cell histogram, two colours a level apart share no bin: the CRF's
+/// histogram intersection follows the colour, not where the bin edges fall.
+TEST(PlanecellExtractionColour, HistogramsOfNearColoursOverlapAcrossALevelEdge) {
+  const StereoCamera camera;
+  const cv::Mat disparity(60, 80, CV_32F, cv::Scalar(8.0f));
+  auto histogram_of = [&](int value) {
+    const cv::Mat left(60, 80, CV_8UC3, cv::Scalar(value, value, value));
+    const PlanecellFrame frame = extract_planecells(left, disparity, camera, {});
+    EXPECT_FALSE(frame.cells.empty());
+    return frame.cells.front().histogram;
+  };
+  // Per channel 127 → levels 1, 2 with weights 65/128, 63/128; 129 → 61/128, 67/128. Overlap per
+  // channel (61 + 63) / 128; the bins are products, so the intersection is at least its cube.
+  const double near = colour_similarity_of(histogram_of(127), histogram_of(129));
+  EXPECT_GE(near, std::pow(124.0 / 128.0, 3) - 1e-6);
+  EXPECT_LT(near, 1.0);
+  // 64 → levels 0, 1 and 192 → levels 2, 3: no common bin.
+  EXPECT_NEAR(colour_similarity_of(histogram_of(64), histogram_of(192)), 0.0, 1e-9);
+}
+
+TEST(PlanecellExtractionColour, SoftBinWeightsAreTheHandComputedOnes) {
+  // 2v − 63 = 128·t before clamping; level lo gets 128 − (2v − 63 − 128·lo), lo + 1 the rest.
+  struct Case {
+    int v, lo;
+    std::uint32_t w_lo, w_hi;
+  };
+  for (const Case& c : {Case{0, 0, 128, 0}, Case{31, 0, 128, 0}, Case{32, 0, 127, 1}, Case{95, 0, 1, 127},
+                        Case{96, 1, 127, 1}, Case{127, 1, 65, 63}, Case{128, 1, 63, 65},
+                        Case{223, 2, 1, 127}, Case{224, 2, 0, 128}, Case{255, 2, 0, 128}}) {
+    const SoftBin& bin = soft_bin_table()[c.v];
+    EXPECT_EQ(bin.lo, c.lo) << "v " << c.v;
+    EXPECT_EQ(bin.w[0], c.w_lo) << "v " << c.v;
+    EXPECT_EQ(bin.w[1], c.w_hi) << "v " << c.v;
+  }
+  for (int v = 0; v < 256; ++v) EXPECT_EQ(soft_bin_table()[v].w[0] + soft_bin_table()[v].w[1], kSoftBinUnit);
 }
 
 INSTANTIATE_TEST_SUITE_P(Scenes, PlanecellExtraction,
