@@ -38,6 +38,11 @@ struct MapConfig {
   /// max_normal_angle_deg + atan(k·σ_eff / √area) (capped at 2× the angle). σ_eff is the label's
   /// information-weighted depth noise (LabelState::sigma_m).
   double depth_sigma_factor = 1.0;     ///< k (0 = fixed range, as in the paper)
+  /// A new cell enters the CRF with its depth noise projected on its plane's normal,
+  /// σ_n = σ_Z·|n·r̂| (map::normal_depth_sigma_m; r̂ the viewing ray), as its σ: the range and the
+  /// weight area / σ² then follow how far the plane itself may be off. false: σ_Z. Coverage and
+  /// the stored cell keep σ_Z.
+  bool normal_depth_noise = true;
   /// The reverse test (the better-informed label on the other's plane) applies when the other
   /// holds at least this share of its information (comparable labels are tested both ways).
   double mutual_information_fraction = 0.25;
@@ -114,6 +119,7 @@ void visit_fields(MapConfig& c, Visitor&& visit) {
   visit("min_colour_similarity", c.min_colour_similarity);
   visit("residual_scale_m", c.residual_scale_m);
   visit("depth_sigma_factor", c.depth_sigma_factor);
+  visit("normal_depth_noise", c.normal_depth_noise);
   visit("mutual_information_fraction", c.mutual_information_fraction);
   visit("mature_cells", c.mature_cells);
   visit("neighbour_gap_m", c.neighbour_gap_m);

@@ -179,8 +179,16 @@ double effective_sigma_m(const PlaneMoments& moments, double observed_area_m2) {
 
 double LabelState::sigma_m() const { return effective_sigma_m(moments, observed_area_m2); }
 
-LabelState state_of_cell(const Planecell& cell, double area_m2, double sigma_floor_m) {
-  const double sigma = std::max(static_cast<double>(cell.depth_sigma_m), sigma_floor_m);
+double normal_depth_sigma_m(const Planecell& cell, const Eigen::Vector3d& camera_centre) {
+  if (cell.vertices_m.empty()) return 0.0;
+  const double range = (vertex_centroid(cell.vertices_m) - camera_centre).norm();
+  const double sigma_z = static_cast<double>(cell.depth_sigma_m);
+  if (!(range > 0.0)) return sigma_z;
+  return sigma_z * std::min(1.0, std::abs(cell.plane.signed_distance(camera_centre)) / range);
+}
+
+LabelState state_of_cell(const Planecell& cell, double area_m2, double sigma_m, double sigma_floor_m) {
+  const double sigma = std::max(sigma_m, sigma_floor_m);
   LabelState s;
   s.plane = cell.plane;
   s.moments.add_polygon(cell.vertices_m, area_m2 / (sigma * sigma));

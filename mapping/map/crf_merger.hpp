@@ -161,9 +161,24 @@ class CrfMerger {
   MapConfig config_;
 };
 
-/// The one-cell label of a world-frame cell of area `area_m2`: moments weighted by area / σ² with
-/// σ = max(cell.depth_sigma_m, sigma_floor_m).
-LabelState state_of_cell(const Planecell& cell, double area_m2, double sigma_floor_m);
+/// The one-cell label of a world-frame cell of area `area_m2` and depth noise `sigma_m`: moments
+/// weighted by area / σ² with σ = max(sigma_m, sigma_floor_m).
+LabelState state_of_cell(const Planecell& cell, double area_m2, double sigma_m, double sigma_floor_m);
+/// The same with the cell's own σ_Z (Planecell::depth_sigma_m).
+inline LabelState state_of_cell(const Planecell& cell, double area_m2, double sigma_floor_m) {
+  return state_of_cell(cell, area_m2, static_cast<double>(cell.depth_sigma_m), sigma_floor_m);
+}
+
+/// A cell's depth noise along its plane's normal, seen from the camera centre C (world frame):
+///   σ_n = σ_Z · |n·C + e| / |X̄ − C|,
+/// with X̄ the polygon's vertex centroid. A depth error moves the cell along the viewing ray
+/// r̂ = (X̄ − C) / |X̄ − C| (σ_Z taken as the error along the ray), which moves its plane by that
+/// error times |n·r̂| = |n·C + e| / |X̄ − C| along the normal, since n·X̄ + e = 0. The CRF's
+/// plane-distance range is a distance along the normal: a plane seen head-on keeps σ_n = σ_Z,
+/// a road 1.65 m below the camera and 16.5 m away gets σ_Z / 10, so a 15 cm kerb step stays
+/// apart at a range where σ_Z alone (0.3 m) would hide it. 0 for an empty polygon; σ_Z when
+/// the centroid is at C.
+double normal_depth_sigma_m(const Planecell& cell, const Eigen::Vector3d& camera_centre);
 
 /// Folds `from` into `into`: moments and histograms add (area-weighted), plane refitted.
 void fold_label(LabelState& into, const LabelState& from);

@@ -158,10 +158,14 @@ TEST(Coverage, SpaceHeldOnlyByAFusedObservationIsNotStoredAgain) {
 TEST(Coverage, NearPreciseCellsReplaceAFarNoisyCellTheyCover) {
   MapConfig config;
   GlobalMap map(config);
+  // Seen from 5 m straight above the squares (y = 1.5), their noise along the normal is nearly
+  // all of σ_Z (map::normal_depth_sigma_m: ≥ 0.95 σ_Z here), so the σ below are the planes' own.
+  Pose above = Pose::Identity();
+  above.translation() = Eigen::Vector3d(1.0, -3.5, 5.5);
   // Frame 0: seen from far, σ_Z = 0.4 m: a 2 m square and its 1 m neighbour (one surface).
   Planecell far_big = road(0, 0, 2.0f), far_next = road(1, 2);
   far_big.depth_sigma_m = far_next.depth_sigma_m = 0.4f;
-  (void)map.integrate(0, Pose::Identity(), std::vector{far_big, far_next});
+  (void)map.integrate(0, above, std::vector{far_big, far_next});
   ASSERT_EQ(map.cells().size(), 2u);
   ASSERT_EQ(map.surfaces().size(), 1u);
   const std::uint32_t big_id = 0;
@@ -169,14 +173,14 @@ TEST(Coverage, NearPreciseCellsReplaceAFarNoisyCellTheyCover) {
   // Frame 1: seen from near, σ_Z = 0.02 m: two 1 m squares covering the 2 m one.
   Planecell near_a = road(0, 0), near_b = road(1, 1);
   near_a.depth_sigma_m = near_b.depth_sigma_m = 0.02f;
-  const auto r = map.integrate(1, Pose::Identity(), std::vector{near_a, near_b});
+  const auto r = map.integrate(1, above, std::vector{near_a, near_b});
   EXPECT_EQ(r.added_cells.size(), 2u);
   EXPECT_EQ(r.replaced_cells, 1u);
   EXPECT_EQ(r.removed_cells, std::vector<std::uint32_t>{big_id});
   EXPECT_FALSE(map.cells().contains(big_id));
   EXPECT_EQ(map.cells().size(), 3u);
   // Frame 2: the same near squares once more add nothing (covered by equally precise cells).
-  const auto again = map.integrate(2, Pose::Identity(), std::vector{near_a, near_b});
+  const auto again = map.integrate(2, above, std::vector{near_a, near_b});
   EXPECT_TRUE(again.added_cells.empty());
   EXPECT_TRUE(again.removed_cells.empty());
   EXPECT_EQ(map.cells().size(), 3u);

@@ -19,6 +19,24 @@ using test::rect_cell;
 
 const Eigen::Vector3f kX(1, 0, 0), kY(0, 1, 0), kZ(0, 0, 1);
 
+/// σ_n = σ_Z·|n·C + e| / |X̄ − C|: a wall seen head-on keeps (almost) all of σ_Z, a road cell
+/// 1.65 m below the camera and 16.5 m ahead keeps 1.65 / √(1.65² + 16.5²) of it, a cell seen
+/// from its own centroid keeps σ_Z, and one without vertices has none.
+TEST(NormalDepthSigma, IsTheDepthNoiseAlongThePlaneNormal) {
+  Planecell wall = test::rect_cell(0, {-0.5f, -0.5f, 10}, {1, 0, 0}, {0, 1, 0}, 0);
+  wall.depth_sigma_m = 0.2f;
+  EXPECT_NEAR(normal_depth_sigma_m(wall, Eigen::Vector3d::Zero()), 0.2, 1e-7);  // X̄ = (0, 0, 10)
+  Planecell road = test::rect_cell(1, {-0.5f, 1.65f, 16}, {1, 0, 0}, {0, 0, 1}, 0);
+  road.depth_sigma_m = 0.4f;
+  const double range = std::hypot(1.65, 16.5);  // X̄ = (0, 1.65, 16.5)
+  EXPECT_NEAR(normal_depth_sigma_m(road, Eigen::Vector3d::Zero()), 0.4 * 1.65 / range, 1e-7);
+  // From a camera 1 m higher the road is 2.65 m below it.
+  EXPECT_NEAR(normal_depth_sigma_m(road, Eigen::Vector3d(0, -1, 0)), 0.4 * 2.65 / std::hypot(2.65, 16.5), 1e-7);
+  EXPECT_NEAR(normal_depth_sigma_m(road, Eigen::Vector3d(0, 1.65, 16.5)), 0.4, 1e-7);
+  road.vertices_m.clear();
+  EXPECT_EQ(normal_depth_sigma_m(road, Eigen::Vector3d::Zero()), 0.0);
+}
+
 TEST(LabelAdjacency, CountsSharedBoundaryPixelPairs) {
   // 0 0 1 1
   // 0 0 1 1
@@ -247,6 +265,10 @@ TEST(LabelStateTest, NoisyCellWeighsLessAndSigmaIsTheHarmonicMean) {
 TEST(IncrementalMerge, NoisyCellJoinsWithinItsNoiseButDoesNotBridgeParallelSurfaces) {
   // Frame 1: a road (y = 1.5) and a sidewalk 25 cm higher, three precise cells each, side by
   // side along x with a 0.5 m gap between them (no image adjacency): two mature surfaces.
+  // Seen from 5 m above the road: a cell's noise along its normal is ≥ 0.96 of its σ_Z
+  // (map::normal_depth_sigma_m), so the σ below are the planes' own.
+  Pose above = Pose::Identity();
+  above.translation() = Eigen::Vector3d(1.25, -3.5, 6.5);
   GlobalMap map;
   std::vector<Planecell> frame1;
   for (std::uint32_t k = 0; k < 3; ++k) {
@@ -255,7 +277,7 @@ TEST(IncrementalMerge, NoisyCellJoinsWithinItsNoiseButDoesNotBridgeParallelSurfa
   }
   for (auto& cell : frame1) cell.depth_sigma_m = 0.03f;
   const std::vector<LabelEdge> chain = {{0, 1, 20}, {1, 2, 20}, {3, 4, 20}, {4, 5, 20}};
-  map.integrate(1, Pose::Identity(), frame1, chain);
+  map.integrate(1, above, frame1, chain);
   ASSERT_EQ(map.surfaces().size(), 2u);
   const std::uint32_t road = map.cells().at(0).surface, sidewalk = map.cells().at(1).surface;
   ASSERT_NE(road, sidewalk);
@@ -264,14 +286,14 @@ TEST(IncrementalMerge, NoisyCellJoinsWithinItsNoiseButDoesNotBridgeParallelSurfa
   // precise surfaces stay apart (their planes step by 25 cm).
   Planecell bridge = rect_cell(0, {0.5f, 1.375f, 5.5f}, kX, kZ, 3);
   bridge.depth_sigma_m = 0.4f;
-  const auto r2 = map.integrate(2, Pose::Identity(), std::vector<Planecell>{bridge});
+  const auto r2 = map.integrate(2, above, std::vector<Planecell>{bridge});
   EXPECT_TRUE(r2.surface_merges.empty());
   EXPECT_EQ(map.surfaces().size(), 2u);
   ASSERT_EQ(r2.cell_surfaces.size(), 1u);
   EXPECT_TRUE(r2.cell_surfaces[0] == road || r2.cell_surfaces[0] == sidewalk);
   // The same cell with a precise plane (σ = 0.03 m) is 12.5 cm off both: a surface of its own.
   bridge.depth_sigma_m = 0.03f;
-  const auto r3 = map.integrate(3, Pose::Identity(), std::vector<Planecell>{bridge});
+  const auto r3 = map.integrate(3, above, std::vector<Planecell>{bridge});
   EXPECT_TRUE(r3.surface_merges.empty());
   EXPECT_NE(r3.cell_surfaces[0], road);
   EXPECT_NE(r3.cell_surfaces[0], sidewalk);

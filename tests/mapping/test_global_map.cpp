@@ -134,6 +134,34 @@ TEST(GlobalMapTest, RejectsCellsWithAWeakPlaneFit) {
 
 /// Surfaces keep their colour histogram at 16 bits per bin: a round trip moves each bin by at most
 /// half a quantum (2⁻¹⁷), and a surface's stored histogram is its only cell's, so compact.
+/// A kerb seen from afar: a road (1 m tiles, x ∈ [−2, 2], z ∈ [10, 16], y = 1.65) is one surface;
+/// a 1 m cell of the sidewalk 15 cm above it (y = 1.5) touches its edge at x = 2, z ∈ [15, 16],
+/// with σ_Z = 0.3 m. Its depth noise along its normal is σ_n = 0.3 · 1.5 / |X̄ − C|
+/// (≈ 2.9 cm at X̄ = (2.5, 1.5, 15.5)), so the CRF's range is max(8 cm, σ_n) and the step keeps it
+/// apart; with σ_Z (range 0.3 m) it joins the road.
+TEST(GlobalMapTest, AFarCellAboveTheRoadIsTestedWithItsNoiseAlongTheNormal) {
+  for (const bool normal_noise : {true, false}) {
+    MapConfig config;
+    config.normal_depth_noise = normal_noise;
+    GlobalMap map(config);
+    std::vector<Planecell> road;
+    test::tile(road, {-2, 1.65f, 10}, kX, kZ, 4, 6, 1, 0, 3);
+    const auto first = map.integrate(0, Pose::Identity(), road);
+    ASSERT_EQ(map.surfaces().size(), 1u);
+    const std::uint32_t road_surface = first.cell_surfaces.front();
+    Planecell kerb = rect_cell(0, {2, 1.5f, 15}, kX, kZ, 3);
+    kerb.depth_sigma_m = 0.3f;
+    const Eigen::Vector3d centroid(2.5, 1.5, 15.5);
+    EXPECT_NEAR(normal_depth_sigma_m(kerb, Eigen::Vector3d::Zero()), 0.3 * 1.5 / centroid.norm(), 1e-7);
+    const auto second = map.integrate(1, Pose::Identity(), std::vector<Planecell>{kerb});
+    ASSERT_EQ(second.cell_surfaces.size(), 1u);
+    if (normal_noise)
+      EXPECT_NE(second.cell_surfaces[0], road_surface);
+    else
+      EXPECT_EQ(second.cell_surfaces[0], road_surface);
+  }
+}
+
 TEST(GlobalMapTest, SurfaceHistogramsKeepSixteenBitsPerBin) {
   ColourHistogram h{};
   for (std::size_t q = 0; q < h.size(); ++q) h[q] = static_cast<float>(q + 1) / 2080.0f;  // Σ = 1
