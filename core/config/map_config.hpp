@@ -38,10 +38,10 @@ struct MapConfig {
   /// max_normal_angle_deg + atan(k·σ_eff / √area) (capped at 2× the angle). σ_eff is the label's
   /// information-weighted depth noise (LabelState::sigma_m).
   double depth_sigma_factor = 1.0;     ///< k (0 = fixed range, as in the paper)
-  /// A new cell enters the CRF with its depth noise projected on its plane's normal,
-  /// σ_n = σ_Z·|n·r̂| (map::normal_depth_sigma_m; r̂ the viewing ray), as its σ: the range and the
-  /// weight area / σ² then follow how far the plane itself may be off. false: σ_Z. Coverage and
-  /// the stored cell keep σ_Z.
+  /// The range widens by a new cell's depth noise projected on its plane's normal,
+  /// σ_n = σ_Z·|n·r̂| (map::normal_depth_sigma_m; r̂ the viewing ray): how far the plane itself may
+  /// be off (LabelState::range_sigma_m). false: by σ_Z. Plane fits (weights area / σ_Z²),
+  /// coverage and the stored cell keep σ_Z.
   bool normal_depth_noise = true;
   /// The reverse test (the better-informed label on the other's plane) applies when the other
   /// holds at least this share of its information (comparable labels are tested both ways).

@@ -179,6 +179,10 @@ double effective_sigma_m(const PlaneMoments& moments, double observed_area_m2) {
 
 double LabelState::sigma_m() const { return effective_sigma_m(moments, observed_area_m2); }
 
+double LabelState::range_sigma_m() const {
+  return range_information > 0.0 ? std::sqrt(observed_area_m2 / range_information) : sigma_m();
+}
+
 double normal_depth_sigma_m(const Planecell& cell, const Eigen::Vector3d& camera_centre) {
   if (cell.vertices_m.empty()) return 0.0;
   const double range = (vertex_centroid(cell.vertices_m) - camera_centre).norm();
@@ -187,11 +191,13 @@ double normal_depth_sigma_m(const Planecell& cell, const Eigen::Vector3d& camera
   return sigma_z * std::min(1.0, std::abs(cell.plane.signed_distance(camera_centre)) / range);
 }
 
-LabelState state_of_cell(const Planecell& cell, double area_m2, double sigma_m, double sigma_floor_m) {
-  const double sigma = std::max(sigma_m, sigma_floor_m);
+LabelState state_of_cell(const Planecell& cell, double area_m2, double range_sigma_m, double sigma_floor_m) {
+  const double sigma = std::max(static_cast<double>(cell.depth_sigma_m), sigma_floor_m);
+  const double range_sigma = std::max(range_sigma_m, sigma_floor_m);
   LabelState s;
   s.plane = cell.plane;
   s.moments.add_polygon(cell.vertices_m, area_m2 / (sigma * sigma));
+  s.range_information = area_m2 / (range_sigma * range_sigma);
   s.histogram = cell.histogram;
   s.histogram_weight_m2 = area_m2;
   s.area_m2 = area_m2;
@@ -210,6 +216,10 @@ void fold_label(LabelState& into, const LabelState& from) {
   into.area_m2 += from.area_m2;
   into.observed_area_m2 += from.observed_area_m2;
   into.cells += from.cells;
+  const auto range_information = [](const LabelState& l) {
+    return l.range_information > 0.0 ? l.range_information : l.moments.weight;
+  };
+  into.range_information = range_information(into) + range_information(from);
   into.moments.add(from.moments);
   // Refit only when the vertices span a plane (two non-negligible scatter eigenvalues).
   if (into.moments.weight > 0.0) {
@@ -242,11 +252,11 @@ EdgeEvaluation CrfMerger::evaluate(const MergeUnit& a, const LabelState& label_a
   const LabelState& lo = a_is_hi ? label_b : label_a;
   const double k = config_.depth_sigma_factor;
   auto distance_tolerance = [&](const LabelState& s) {
-    return std::max(config_.max_plane_distance_m, k * s.sigma_m());
+    return std::max(config_.max_plane_distance_m, k * s.range_sigma_m());
   };
   auto angle_tolerance = [&](const LabelState& s) {
     const double extent_m = std::sqrt(std::max(s.observed_area_m2, 1e-6));
-    const double widen = std::atan(k * s.sigma_m() / extent_m) * 180.0 / std::numbers::pi;
+    const double widen = std::atan(k * s.range_sigma_m() / extent_m) * 180.0 / std::numbers::pi;
     return config_.max_normal_angle_deg + std::min(widen, config_.max_normal_angle_deg);
   };
   ev.distance_m = lo.moments.rms_distance_m(hi.plane);

@@ -91,10 +91,16 @@ struct LabelState {
   double area_m2 = 0.0;           ///< area the label covers (a surface: its footprint)
   double observed_area_m2 = 0.0;  ///< Σ area_i of every member observation
   std::uint32_t cells = 0;        ///< member observations (a mature label has ≥ MapConfig::mature_cells)
+  /// Σ area_i / ρ_i² over the members, ρ_i the noise the variation range is widened by (a new
+  /// cell's noise along its plane normal, MapConfig::normal_depth_noise); 0 = moments.weight.
+  double range_information = 0.0;
 
   /// Effective depth noise of the label, σ_eff = √(Σ area_i / Σ (area_i / σ_i²)) (m): the
   /// area-weighted harmonic mean of the members' σ², dominated by its most precise cells.
   double sigma_m() const;
+  /// The same mean of the range noise, ρ_eff = √(Σ area_i / range_information); σ_eff when
+  /// range_information is 0. The variation range widens by it.
+  double range_sigma_m() const;
 };
 
 /// A planecell taking part in a merge (world frame), with its current label.
@@ -161,10 +167,11 @@ class CrfMerger {
   MapConfig config_;
 };
 
-/// The one-cell label of a world-frame cell of area `area_m2` and depth noise `sigma_m`: moments
-/// weighted by area / σ² with σ = max(sigma_m, sigma_floor_m).
-LabelState state_of_cell(const Planecell& cell, double area_m2, double sigma_m, double sigma_floor_m);
-/// The same with the cell's own σ_Z (Planecell::depth_sigma_m).
+/// The one-cell label of a world-frame cell of area `area_m2`: moments weighted by area / σ² with
+/// σ = max(cell.depth_sigma_m, sigma_floor_m), range information area / ρ² with
+/// ρ = max(range_sigma_m, sigma_floor_m).
+LabelState state_of_cell(const Planecell& cell, double area_m2, double range_sigma_m, double sigma_floor_m);
+/// The same with ρ = σ (the cell's own σ_Z).
 inline LabelState state_of_cell(const Planecell& cell, double area_m2, double sigma_floor_m) {
   return state_of_cell(cell, area_m2, static_cast<double>(cell.depth_sigma_m), sigma_floor_m);
 }

@@ -244,15 +244,14 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
 
   std::vector<MergeUnit> units;
   std::unordered_map<std::uint32_t, LabelState> labels;
-  // Each new cell's σ in the CRF (MapConfig::normal_depth_noise): what its label's σ_eff, and the
-  // surfaces it joins, are made of.
-  std::vector<double> fresh_sigma(fresh.size());
   for (std::size_t k = 0; k < fresh.size(); ++k) {
     const auto label = next_surface_id_ + static_cast<std::uint32_t>(k);
     units.push_back({label, &fresh[k]->plane, fresh[k]->vertices_m, &fresh[k]->histogram, fresh_area[k]});
-    fresh_sigma[k] = config_.normal_depth_noise ? normal_depth_sigma_m(*fresh[k], camera_centre)
-                                                : static_cast<double>(fresh[k]->depth_sigma_m);
-    labels.emplace(label, state_of_cell(*fresh[k], fresh_area[k], fresh_sigma[k], config_.residual_scale_m));
+    // The range widens by the noise along the normal (MapConfig::normal_depth_noise); the plane
+    // fits keep weighting by σ_Z.
+    const double range_sigma = config_.normal_depth_noise ? normal_depth_sigma_m(*fresh[k], camera_centre)
+                                                          : static_cast<double>(fresh[k]->depth_sigma_m);
+    labels.emplace(label, state_of_cell(*fresh[k], fresh_area[k], range_sigma, config_.residual_scale_m));
   }
 
   // 2. Neighbour edges: same frame (image adjacency, or 3D proximity), earlier cells (index).
@@ -319,12 +318,12 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
     const Aabb box = bounds_of(cell.vertices_m);
     const Aabb near_box = box.inflated(gap);
     // A surface covering the cell: its plane within the cell's own noise, and its σ_eff at most
-    // redundant_precision_ratio × the cell's σ in the CRF (the σ surfaces' moments are weighted
-    // by, floored like them).
+    // redundant_precision_ratio × the cell's σ (floored like the surfaces' moments).
     const double surface_tol = std::clamp(config_.redundant_sigma_factor * cell.depth_sigma_m,
                                           config_.residual_scale_m, reach);
     const double max_surface_sigma =
-        config_.redundant_precision_ratio * std::max(fresh_sigma[k], config_.residual_scale_m);
+        config_.redundant_precision_ratio *
+        std::max<double>(cell.depth_sigma_m, config_.residual_scale_m);
     // The index's candidates, filtered by their bounds.
     const Aabb reach_box = box.inflated(reach);
     index_.candidates(reach_box, nearby);

@@ -37,6 +37,29 @@ TEST(NormalDepthSigma, IsTheDepthNoiseAlongThePlaneNormal) {
   EXPECT_EQ(normal_depth_sigma_m(road, Eigen::Vector3d::Zero()), 0.0);
 }
 
+/// The range noise is kept beside the plane-fit weights: a cell of σ_Z = 0.4 m and range noise
+/// 0.1 m keeps weight area / 0.4² and ranges by 0.1 m; two labels fold to the harmonic means
+/// √(Σ area / Σ area/ρ²) and √(Σ area / Σ area/σ²); a label without range information (a stored
+/// surface's state) ranges by its σ_eff.
+TEST(NormalDepthSigma, RangeNoiseAndPlaneWeightsFoldSeparately) {
+  Planecell a = test::rect_cell(0, {0, 1.5f, 5}, {1, 0, 0}, {0, 0, 1}, 0);
+  Planecell b = test::rect_cell(1, {1, 1.5f, 5}, {1, 0, 0}, {0, 0, 1}, 0);
+  a.depth_sigma_m = 0.4f;
+  b.depth_sigma_m = 0.2f;
+  LabelState la = state_of_cell(a, 1.0, 0.1, 0.05);
+  EXPECT_NEAR(la.sigma_m(), 0.4, 1e-7);
+  EXPECT_NEAR(la.range_sigma_m(), 0.1, 1e-12);
+  EXPECT_NEAR(state_of_cell(a, 1.0, 0.01, 0.05).range_sigma_m(), 0.05, 1e-12);  // floored
+  fold_label(la, state_of_cell(b, 3.0, 0.2, 0.05));
+  EXPECT_NEAR(la.sigma_m(), std::sqrt(4.0 / (1.0 / (0.4 * 0.4) + 3.0 / (0.2 * 0.2))), 1e-6);
+  EXPECT_NEAR(la.range_sigma_m(), std::sqrt(4.0 / (1.0 / (0.1 * 0.1) + 3.0 / (0.2 * 0.2))), 1e-6);
+  LabelState surface = state_of_cell(b, 3.0, 0.05);
+  surface.range_information = 0.0;  // as state_of_surface: the map keeps no range information
+  EXPECT_NEAR(surface.range_sigma_m(), surface.sigma_m(), 1e-12);
+  fold_label(surface, state_of_cell(a, 1.0, 0.1, 0.05));
+  EXPECT_NEAR(surface.range_sigma_m(), std::sqrt(4.0 / (3.0 / (0.2 * 0.2) + 1.0 / (0.1 * 0.1))), 1e-6);
+}
+
 TEST(LabelAdjacency, CountsSharedBoundaryPixelPairs) {
   // 0 0 1 1
   // 0 0 1 1
