@@ -68,15 +68,14 @@ constexpr SoftBinTable make_soft_bin_table() {
 }
 constexpr SoftBinTable kSoftBins = make_soft_bin_table();
 
-/// Mean colour (R, G, B) and normalised 64-bin soft colour histogram of every cell
-/// (colour_histogram_weights), in one raster pass; `area` is each cell's pixel count. Per row,
-/// the colour sums run over runs of equal labels (they vectorise).
+/// Mean colour (R, G, B) and normalised 64-bin soft colour histogram (soft_bin_table) of every
+/// cell, in one raster pass over runs of equal labels; `area` is each cell's pixel count. A
+/// pixel adds 8 integer weights (products of its channels' table weights), so the sums are exact.
 void describe_colours(const cv::Mat& bgr, const std::vector<std::int32_t>& labels,
                       const std::vector<std::int32_t>& area, std::vector<Planecell>& cells) {
   const std::size_t n = cells.size();
   std::vector<std::array<std::int64_t, 3>> rgb_sum(n, {0, 0, 0});
   std::vector<std::uint64_t> weights(n * kColourHistogramBins, 0);  // in units of 1/kSoftBinUnit³
-  const SoftBinTable& table = kSoftBins;
   for (int v = 0; v < bgr.rows; ++v) {
     const auto* px = bgr.ptr<cv::Vec3b>(v);
     const std::int32_t* row = labels.data() + static_cast<std::size_t>(v) * bgr.cols;
@@ -85,9 +84,9 @@ void describe_colours(const cv::Mat& bgr, const std::vector<std::int32_t>& label
       std::int64_t r = 0, g = 0, b = 0;
       std::uint64_t* w = weights.data() + static_cast<std::size_t>(l) * kColourHistogramBins;
       for (; u < bgr.cols && row[u] == l; ++u) {
-        const SoftBin& sr = table[px[u][2]];
-        const SoftBin& sg = table[px[u][1]];
-        const SoftBin& sb = table[px[u][0]];
+        const SoftBin& sr = kSoftBins[px[u][2]];
+        const SoftBin& sg = kSoftBins[px[u][1]];
+        const SoftBin& sb = kSoftBins[px[u][0]];
         r += px[u][2];
         g += px[u][1];
         b += px[u][0];

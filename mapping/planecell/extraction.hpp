@@ -1,7 +1,7 @@
 #pragma once
+/// Planecell extraction (paper §4.2–5.1): depth-aware superpixels, RANSAC planes, vertices, 2D→3D.
 #include <array>
 #include <cstdint>
-/// Planecell extraction (paper §4.2–5.1): depth-aware superpixels, RANSAC planes, vertices, 2D→3D.
 #include <opencv2/core/mat.hpp>
 #include <vector>
 

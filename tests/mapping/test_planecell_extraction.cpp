@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "core/error.hpp"
+#include "mapping/map/crf_merger.hpp"
 #include "mapping/planecell/extraction.hpp"
 
 namespace planecell::extraction {
@@ -51,13 +52,6 @@ double level_weight(int v, int k) {
 double soft_weight(int r, int g, int b, int q) {
   return level_weight(r, level_of_bin(q, 0)) * level_weight(g, level_of_bin(q, 1)) *
          level_weight(b, level_of_bin(q, 2));
-}
-
-/// Σ_q min(a_q, b_q).
-double colour_similarity_of(const ColourHistogram& a, const ColourHistogram& b) {
-  double sum = 0.0;
-  for (int q = 0; q < kColourHistogramBins; ++q) sum += std::min(a[q], b[q]);
-  return sum;
 }
 
 Scene make_scene(const SceneOptions& options) {
@@ -326,11 +320,11 @@ TEST(PlanecellExtractionColour, HistogramsOfNearColoursOverlapAcrossALevelEdge) 
   };
   // Per channel 127 → levels 1, 2 with weights 65/128, 63/128; 129 → 61/128, 67/128. Overlap per
   // channel (61 + 63) / 128; the bins are products, so the intersection is at least its cube.
-  const double near = colour_similarity_of(histogram_of(127), histogram_of(129));
+  const double near = map::colour_similarity(histogram_of(127), histogram_of(129));
   EXPECT_GE(near, std::pow(124.0 / 128.0, 3) - 1e-6);
   EXPECT_LT(near, 1.0);
   // 64 → levels 0, 1 and 192 → levels 2, 3: no common bin.
-  EXPECT_NEAR(colour_similarity_of(histogram_of(64), histogram_of(192)), 0.0, 1e-9);
+  EXPECT_NEAR(map::colour_similarity(histogram_of(64), histogram_of(192)), 0.0, 1e-9);
 }
 
 TEST(PlanecellExtractionColour, SoftBinWeightsAreTheHandComputedOnes) {
