@@ -617,6 +617,39 @@ std::vector<map::SurfaceMerge> MapStore::merge_history() const {
   return out;
 }
 
+StoreBytes MapStore::bytes_by_part() const {
+  StoreBytes out;
+  {
+    Statement s(db_, "SELECT name, sum(pgsize) FROM dbstat GROUP BY name", *this);
+    int rc = SQLITE_OK;
+    while (s.step(rc)) {
+      const std::string name = s.text(0);
+      const auto bytes = static_cast<std::size_t>(s.integer(1));
+      if (name == "cells")
+        out.cells += bytes;
+      else if (name.starts_with("cell_bounds"))
+        out.bounds += bytes;
+      else if (name == "surfaces")
+        out.surfaces += bytes;
+      else if (name == "frames")
+        out.frames += bytes;
+      else if (name == "merges")
+        out.merges += bytes;
+      else
+        out.other += bytes;
+    }
+    if (rc != SQLITE_DONE) fail("cannot read page statistics");
+  }
+  Statement free_pages(db_,
+                       "SELECT (SELECT freelist_count FROM pragma_freelist_count) * "
+                       "(SELECT page_size FROM pragma_page_size)",
+                       *this);
+  int rc = SQLITE_OK;
+  if (!free_pages.step(rc)) fail("cannot count free pages");
+  out.free = static_cast<std::size_t>(free_pages.integer(0));
+  return out;
+}
+
 std::vector<std::uint32_t> MapStore::cells_in_box(const map::Aabb& box) const {
   Statement s(db_, "SELECT id FROM cell_bounds WHERE max_x >= ? AND min_x <= ? AND max_y >= ? "
                    "AND min_y <= ? AND max_z >= ? AND min_z <= ? ORDER BY id", *this);

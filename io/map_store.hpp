@@ -32,6 +32,19 @@ struct StoredMap {
   std::uint32_t next_surface_id = 0;
 };
 
+/// Bytes of the store's pages by what they hold (MapStore::bytes_by_part): SQLite pages of each
+/// table and its indexes, as SQLite's dbstat table counts them (page size × pages).
+struct StoreBytes {
+  std::size_t cells = 0;     ///< cells table
+  std::size_t bounds = 0;    ///< the R*Tree on cell bounds (its node, rowid and parent tables)
+  std::size_t surfaces = 0;  ///< surfaces table (deflated blobs)
+  std::size_t frames = 0;    ///< frames table (poses, counts)
+  std::size_t merges = 0;    ///< merge history
+  std::size_t other = 0;     ///< schema, meta, sequence counters, indexes of those
+  std::size_t free = 0;      ///< free pages (reused by later frames; compact() drops them)
+  std::size_t total() const { return cells + bounds + surfaces + frames + merges + other + free; }
+};
+
 class MapStore {
  public:
   /// Opens the store at `path`, creating it when the file does not exist. An existing file that is
@@ -67,6 +80,10 @@ class MapStore {
   /// The frame's pose before refinement; nullopt when it was used as given (or no such frame).
   std::optional<Pose> input_pose(std::uint64_t frame_id) const;
   std::vector<map::SurfaceMerge> merge_history() const;
+  /// Where the store's pages go. total() = page count × page size of the database (committed
+  /// frames, including those still in the WAL file). Throws StorageError when the SQLite library
+  /// lacks its dbstat table (SQLITE_ENABLE_DBSTAT_VTAB; Debian's has it).
+  StoreBytes bytes_by_part() const;
   /// Ids of cells whose stored bounds overlap `box` (R*Tree query; bounds are rounded outward
   /// to float by SQLite).
   std::vector<std::uint32_t> cells_in_box(const map::Aabb& box) const;

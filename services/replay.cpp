@@ -292,7 +292,8 @@ ReplayReport run_replay(const ReplayOptions& options, const AppConfig& config) {
     report.stage_cost = stats.stage_cost;
   }
   progress.finish();
-  report.map_bytes = global_map.map_bytes();
+  report.map_parts = global_map.map_bytes_by_part();
+  report.map_bytes = report.map_parts.total();
   if (options.memory_sample_every > 0 && (report.memory.empty() || report.memory.back().frames != report.frames))
     sample_memory(report.map_bytes);
   // The kernel's high-water mark (ru_maxrss) is updated lazily and can trail a later sample.
@@ -310,6 +311,7 @@ ReplayReport run_replay(const ReplayOptions& options, const AppConfig& config) {
     const auto path = store->path();
     close_store(store);  // compacts, closes: checkpoints the WAL into the database
     report.store_bytes = file_bytes(path) + file_bytes(path.string() + "-wal");
+    report.store_parts = io::MapStore(path).bytes_by_part();
   }
   if (voxel_map) {
     const auto stats = voxel_map->stats();
@@ -356,6 +358,19 @@ nlohmann::json to_json(const ReplayReport& r) {
     costs[name] = {{"cpu_p50_ms", c.cpu.p50_ms}, {"cpu_p95_ms", c.cpu.p95_ms},
                    {"cpu_mean_ms", c.cpu.mean_ms}, {"minor_faults_mean", c.minor_faults_mean}};
   out["stage_cost"] = costs;
+  const map::MapBytes& ram = r.map_parts;
+  out["map_bytes_by_part"] = {{"cells", ram.cells},
+                              {"vertices", ram.vertices},
+                              {"surfaces", ram.surfaces},
+                              {"footprints", ram.footprints},
+                              {"index", ram.index}};
+  if (r.store_parts) {
+    const io::StoreBytes& disk = *r.store_parts;
+    out["store_bytes_by_part"] = {{"cells", disk.cells},       {"cell_bounds_rtree", disk.bounds},
+                                  {"surfaces", disk.surfaces}, {"frames", disk.frames},
+                                  {"merges", disk.merges},     {"schema", disk.other},
+                                  {"free", disk.free}};
+  }
   constexpr double kMb = 1024.0 * 1024.0;
   nlohmann::json rss = nlohmann::json::array();
   for (const auto& m : r.memory)

@@ -13,11 +13,13 @@
 #include <vector>
 
 #include "core/config/app_config.hpp"
+#include "io/map_store.hpp"
+#include "mapping/map/global_map.hpp"
 #include "services/eval/map_completeness.hpp"
 #include "services/eval/merge_metrics.hpp"
 #include "services/latency_stats.hpp"
-#include "services/refine_stage.hpp"
 #include "services/pipeline/pipeline.hpp"
+#include "services/refine_stage.hpp"
 
 namespace planecell::services {
 
@@ -85,7 +87,10 @@ struct ReplayReport {
   std::size_t pruned_surfaces = 0;  ///< single-observation surfaces pruned as unconfirmed
   std::size_t surface_merges = 0;
   std::size_t map_bytes = 0;       ///< global map in RAM (GlobalMap::map_bytes)
+  map::MapBytes map_parts;         ///< map_bytes by part (GlobalMap::map_bytes_by_part)
   std::size_t store_bytes = 0;     ///< map store on disk (database + WAL), 0 without --map
+  /// The compacted store's pages by table (MapStore::bytes_by_part); nullopt without --map.
+  std::optional<io::StoreBytes> store_parts;
   double bytes_per_frame = 0.0;    ///< map_bytes / frames in the map
   bool voxel = false;
   std::size_t voxel_bytes = 0;     ///< OctoMap memoryUsage

@@ -259,6 +259,12 @@ std::string describe_map_store(const fs::path& path) {
       << ", vertices " << ram.vertices / 1024.0 << ", surfaces " << ram.surfaces / 1024.0
       << ", footprints " << ram.footprints / 1024.0 << ", index " << ram.index / 1024.0 << ")\n";
   out << "  file size:    " << fs::file_size(path) / 1024.0 << " KiB\n";
+  const io::StoreBytes stored = store.bytes_by_part();
+  out << "  store pages:  " << stored.total() / 1024.0 << " KiB (cells " << stored.cells / 1024.0
+      << ", cell-bounds R*Tree " << stored.bounds / 1024.0 << ", surfaces "
+      << stored.surfaces / 1024.0 << ", frames " << stored.frames / 1024.0 << ", merges "
+      << stored.merges / 1024.0 << ", schema " << stored.other / 1024.0 << ", free "
+      << stored.free / 1024.0 << ")\n";
   return out.str();
 }
 

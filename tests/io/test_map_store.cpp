@@ -172,6 +172,51 @@ TEST(MapStoreTest, RTreeAnswersBoxQueriesOverCellBounds) {
   EXPECT_FALSE(store.cells_in_box(box).empty());
 }
 
+/// The integer `sql` selects from the database at `path`, read by a second connection (it sees
+/// the frames committed to the WAL too).
+std::size_t query_integer(const std::filesystem::path& path, const char* sql) {
+  sqlite3* db = nullptr;
+  EXPECT_EQ(sqlite3_open_v2(path.c_str(), &db, SQLITE_OPEN_READONLY, nullptr), SQLITE_OK);
+  std::size_t value = 0;
+  sqlite3_stmt* s = nullptr;
+  if (sqlite3_prepare_v2(db, sql, -1, &s, nullptr) == SQLITE_OK && sqlite3_step(s) == SQLITE_ROW)
+    value = static_cast<std::size_t>(sqlite3_column_int64(s, 0));
+  else
+    ADD_FAILURE() << sql << ": " << sqlite3_errmsg(db);
+  sqlite3_finalize(s);
+  sqlite3_close(db);
+  return value;
+}
+
+TEST(MapStoreTest, BytesByPartAccountForEveryPage) {
+  test::ScratchDir dir;
+  const auto path = dir / "map.db";
+  MapStore store(path);
+  const std::size_t page = query_integer(path, "PRAGMA page_size");
+  const char* kDatabaseBytes =
+      "SELECT page_count * page_size FROM pragma_page_count, pragma_page_size";
+  ASSERT_GT(page, 0u);
+  // A new store: every table is an empty B-tree of one root page; the R*Tree is three tables
+  // (nodes, holding the empty root node; rowid map; parent map).
+  const StoreBytes empty = store.bytes_by_part();
+  EXPECT_EQ(empty.cells, page);
+  EXPECT_EQ(empty.surfaces, page);
+  EXPECT_EQ(empty.frames, page);
+  EXPECT_EQ(empty.merges, page);
+  EXPECT_EQ(empty.bounds, 3 * page);
+  EXPECT_EQ(empty.free, 0u);
+  EXPECT_EQ(empty.total(), query_integer(path, kDatabaseBytes));
+  // 40 frames of 24 road cells and a wall cell: cells, bounds and frames outgrow their root page,
+  // and the parts still add up to the whole database.
+  map::GlobalMap map;
+  drive(map, 40, &store, 24);
+  const StoreBytes full = store.bytes_by_part();
+  EXPECT_GT(full.cells, page);
+  EXPECT_GT(full.bounds, 3 * page);
+  EXPECT_GT(full.frames, page);
+  EXPECT_EQ(full.total(), query_integer(path, kDatabaseBytes));
+}
+
 TEST(MapStoreTest, ForeignTextFileIsRejectedAndLeftUnchanged) {
   test::ScratchDir dir;
   const auto path = dir / "map.db";

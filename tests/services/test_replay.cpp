@@ -46,7 +46,19 @@ TEST_F(ReplayTest, MapsEveryFrameAndStoresThem) {
   EXPECT_GT(report.surfaces, 0u);
   EXPECT_LT(report.surfaces, report.cells_in_map);  // coplanar cells share surfaces
   EXPECT_GT(report.map_bytes, 0u);
+  EXPECT_EQ(report.map_parts.total(), report.map_bytes);
+  EXPECT_GT(report.map_parts.vertices, 0u);
   EXPECT_GT(report.store_bytes, 0u);
+  // The store is compacted and its WAL checkpointed at the end: its pages are the whole file.
+  ASSERT_TRUE(report.store_parts.has_value());
+  EXPECT_EQ(report.store_parts->total(), report.store_bytes);
+  EXPECT_EQ(report.store_parts->free, 0u);
+  EXPECT_GT(report.store_parts->cells, 0u);
+  const auto json = to_json(report);
+  EXPECT_EQ(json["store_bytes_by_part"]["cell_bounds_rtree"].get<std::size_t>(),
+            report.store_parts->bounds);
+  EXPECT_EQ(json["map_bytes_by_part"]["footprints"].get<std::size_t>(),
+            report.map_parts.footprints);
   // The synthetic sequence has GT surface ids: merging is scored against them.
   ASSERT_TRUE(report.merge_metrics.has_value());
   EXPECT_GT(report.merge_metrics->cells, 0u);
