@@ -1,4 +1,5 @@
-/// `planecell export` — a stored map as a coloured PLY of its planecell polygons.
+/// `planecell export` — a stored map as a coloured PLY of its planecell polygons, or as JSON
+/// outlines of its surfaces.
 #include <spdlog/spdlog.h>
 
 #include <cmath>
@@ -8,6 +9,7 @@
 
 #include "core/error.hpp"
 #include "io/map_store.hpp"
+#include "io/outline_export.hpp"
 #include "io/ply_export.hpp"
 #include "services/commands/commands.hpp"
 #include "services/render/cell_colours.hpp"
@@ -24,24 +26,50 @@ Eigen::Vector3f surface_colour(std::uint32_t surface) {
 }  // namespace
 
 void add_export_command(CLI::App& app, CommandContext& context) {
-  auto* command = app.add_subcommand(
-      "export", "Export a stored map (planecell replay --map) as a PLY of coloured polygons.");
+  auto* command = app.add_subcommand("export",
+                                     "Export a stored map (planecell replay --map) as a PLY of "
+                                     "coloured polygons, or its surfaces' outlines as JSON "
+                                     "(--outlines).");
   struct Args {
     std::string map, output, colour = "rgb";
+    bool outlines = false;
+    double tolerance_m = 0.1;
   };
   auto args = std::make_shared<Args>();
   command->add_option("map", args->map, "Map store (.db)")->required()->check(CLI::ExistingFile);
-  command->add_option("-o,--output", args->output, "Output .ply")->required();
+  command->add_option("-o,--output", args->output, "Output .ply (.json with --outlines)")->required();
   command->add_option("--color", args->colour,
                       "rgb: mean image colour; height: colour by height (world up); surface: one "
                       "colour per CRF surface label")
       ->check(CLI::IsMember({"rgb", "height", "surface"}))
       ->capture_default_str();
-  command->footer("Example:\n  planecell export /tmp/street.db -o /tmp/street.ply --color surface");
+  command->add_flag(
+      "--outlines", args->outlines,
+      "Write the surfaces' outlines instead, as JSON: each surface's plane, colour and "
+      "rings (outer boundary and holes of everything fused into it, traced on its "
+      "footprint bits and simplified), a compact map for planners");
+  command
+      ->add_option("--tolerance", args->tolerance_m,
+                   "With --outlines: Douglas-Peucker tolerance of the rings (m; 0 keeps every "
+                   "footprint corner; the default, one 10 cm footprint bit, removes the bits' "
+                   "staircase)")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+  command->footer(
+      "Examples:\n  planecell export /tmp/street.db -o /tmp/street.ply --color surface\n"
+      "  planecell export /tmp/street.db -o /tmp/street_outlines.json --outlines --tolerance 0.1");
   context.add(command, [args](const CommandContext& ctx) {
     const AppConfig config = ctx.load_app_config();
     const io::MapStore store(args->map);
     const map::GlobalMap global_map = io::load_map(store, config.map);
+    if (args->outlines) {
+      const io::OutlineExport written =
+          io::write_outlines_json(args->output, global_map, args->tolerance_m);
+      spdlog::info("export: {} surfaces as {} rings of {} vertices (tolerance {} m) -> {}",
+                   written.surfaces, written.rings, written.vertices, args->tolerance_m,
+                   args->output);
+      return kExitOk;
+    }
     std::vector<map::MapCell> cells;
     cells.reserve(global_map.cells().size());
     for (const auto& [id, cell] : global_map.cells()) cells.push_back(cell);

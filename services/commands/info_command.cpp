@@ -3,20 +3,21 @@
 #include <algorithm>
 #include <cmath>
 #include <iomanip>
-#include <numbers>
 #include <iostream>
 #include <limits>
 #include <memory>
+#include <numbers>
 #include <opencv2/core.hpp>
+#include <optional>
 #include <sstream>
 
-#include "io/paths.hpp"
 #include "core/error.hpp"
 #include "io/disparity_io.hpp"
 #include "io/euroc.hpp"
 #include "io/image_io.hpp"
 #include "io/kitti_odometry.hpp"
 #include "io/map_store.hpp"
+#include "io/paths.hpp"
 #include "mapping/refine/pose_refinement.hpp"
 #include "services/commands/commands.hpp"
 
@@ -235,10 +236,31 @@ std::string describe_map_store(const fs::path& path) {
       << " with a surface label)\n";
   out << "  surfaces:     " << global_map.surfaces().size() << ", " << area_m2 << " m² in all\n";
   out << "  merges:       " << store.merge_history().size() << " surface merges recorded\n";
+  // Where the map is: the bounds of every integrated cell (the surfaces' bounds, fused
+  // re-observations included), and how far the camera went (centre to centre, frame order).
+  map::Aabb extent;
+  for (const auto& [id, surface] : global_map.surfaces()) extent.extend(surface.bounds);
+  if (!extent.empty())
+    out << "  extent:       x " << extent.min.x() << " … " << extent.max.x() << ", y "
+        << extent.min.y() << " … " << extent.max.y() << ", z " << extent.min.z() << " … "
+        << extent.max.z() << " m (world frame)\n";
+  const std::vector<std::uint64_t> frame_ids = store.frame_ids();
+  double driven_m = 0.0;
+  std::optional<Eigen::Vector3d> last_centre;
+  for (const std::uint64_t id : frame_ids) {
+    const auto pose = store.pose(id);
+    if (!pose) continue;
+    if (last_centre) driven_m += (pose->translation() - *last_centre).norm();
+    last_centre = pose->translation();
+  }
+  if (!frame_ids.empty())
+    out << "  trajectory:   frames " << frame_ids.front() << " … " << frame_ids.back() << ", "
+        << std::setprecision(2) << driven_m << " m driven\n"
+        << std::setprecision(1);
   // Pose refinement: frames whose odometry pose was replaced, and by how much.
   std::size_t refined = 0;
   double sum_m = 0.0, max_m = 0.0, max_deg = 0.0;
-  for (const std::uint64_t id : store.frame_ids()) {
+  for (const std::uint64_t id : frame_ids) {
     const auto input = store.input_pose(id);
     const auto pose = store.pose(id);
     if (!input || !pose) continue;
@@ -303,7 +325,8 @@ void add_info_command(CLI::App& app, CommandContext& context) {
       "Summarise a dataset folder or file: a KITTI-odometry-layout sequence (frames, image "
       "size, camera, time span, poses, path length, GT folders), a EuRoC folder, a disparity map "
       "(.pfm or KITTI 16-bit .png: size, density, min/max/mean), an image, or a map store "
-      "written by `planecell replay --map` (frames, cells, surfaces, bytes).");
+      "written by `planecell replay --map` (frames, cells, surfaces, world extent, distance "
+      "driven, refined poses, RAM and store bytes by part).");
   auto path = std::make_shared<std::string>();
   command->add_option("path", *path, "Folder or file to summarise")->required();
   command->footer(

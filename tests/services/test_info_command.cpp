@@ -71,6 +71,9 @@ TEST(InfoCommand, SummarisesAMapStoreWithItsRefinedFrames) {
   EXPECT_CONTAINS(out, "2 committed");
   EXPECT_CONTAINS(out, "1 of 2 frames refined");
   EXPECT_CONTAINS(out, "mean 0.050 m, max 0.050 m / 0.000 deg");
+  // The 1 m cell spans x 0…1, y 1.5, z 5…6; the camera moved from the origin to z = 1.
+  EXPECT_CONTAINS(out, "extent:       x 0.0 … 1.0, y 1.5 … 1.5, z 5.0 … 6.0 m (world frame)");
+  EXPECT_CONTAINS(out, "trajectory:   frames 0 … 1, 1.00 m driven");
   // One 1 m cell of 4 float vertices (48 B), its surface's one footprint tile (136 B).
   EXPECT_CONTAINS(out, "vertices 0.0, surfaces");
   EXPECT_CONTAINS(out, "footprints 0.1, index");
