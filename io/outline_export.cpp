@@ -30,12 +30,10 @@ OutlineExport write_outlines_json(const std::filesystem::path& path, const map::
   std::sort(ids.begin(), ids.end());
   OutlineExport counts;
   nlohmann::json surfaces = nlohmann::json::array();
-  double resolution_m = 0.0;
   for (const std::uint32_t id : ids) {
     const map::Surface& surface = *map.surface(id);
     const std::vector<map::OutlineRing> outline = map::surface_outline(surface, tolerance_m);
     if (outline.empty()) continue;
-    resolution_m = surface.footprint.resolution_m();
     nlohmann::json rings = nlohmann::json::array();
     for (const auto& ring : outline) {
       nlohmann::json vertices = nlohmann::json::array();
@@ -59,7 +57,7 @@ OutlineExport write_outlines_json(const std::filesystem::path& path, const map::
                               {"version", 1},
                               {"frame", "world"},
                               {"units", "m"},
-                              {"footprint_resolution_m", resolution_m},
+                              {"footprint_resolution_m", map.config().footprint_resolution_m},
                               {"tolerance_m", tolerance_m},
                               {"surfaces", std::move(surfaces)}};
   std::error_code ec;

@@ -46,8 +46,8 @@ void add_export_command(CLI::App& app, CommandContext& context) {
   command->add_flag(
       "--outlines", args->outlines,
       "Write the surfaces' outlines instead, as JSON: each surface's plane, colour and "
-      "rings (outer boundary and holes of everything fused into it, traced on its "
-      "footprint bits and simplified), a compact map for planners");
+      "rings (the exact outer boundary and holes of its footprint, which holds everything "
+      "fused into it, then simplified), a compact map for planners");
   command
       ->add_option("--tolerance", args->tolerance_m,
                    "With --outlines: Douglas-Peucker tolerance of the rings (m; 0 keeps every "
