@@ -309,9 +309,9 @@ ReplayReport run_replay(const ReplayOptions& options, const AppConfig& config) {
       frames_in_map > 0 ? static_cast<double>(report.map_bytes) / static_cast<double>(frames_in_map) : 0.0;
   if (store) {
     const auto path = store->path();
-    close_store(store);  // compacts, closes: checkpoints the WAL into the database
+    report.store_parts =
+        close_store(store);  // compacts, closes: checkpoints the WAL into the database
     report.store_bytes = file_bytes(path) + file_bytes(path.string() + "-wal");
-    report.store_parts = io::MapStore(path).bytes_by_part();
   }
   if (voxel_map) {
     const auto stats = voxel_map->stats();

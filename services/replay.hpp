@@ -89,7 +89,7 @@ struct ReplayReport {
   std::size_t map_bytes = 0;       ///< global map in RAM (GlobalMap::map_bytes)
   map::MapBytes map_parts;         ///< map_bytes by part (GlobalMap::map_bytes_by_part)
   std::size_t store_bytes = 0;     ///< map store on disk (database + WAL), 0 without --map
-  /// The compacted store's pages by table (MapStore::bytes_by_part); nullopt without --map.
+  /// The compacted store's pages by table (close_store); nullopt without --map.
   std::optional<io::StoreBytes> store_parts;
   double bytes_per_frame = 0.0;    ///< map_bytes / frames in the map
   bool voxel = false;

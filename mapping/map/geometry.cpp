@@ -32,15 +32,23 @@ PlaneBasis make_basis(const Plane3& plane, const Eigen::Vector3d& near_point) {
   return basis;
 }
 
-double polygon_area_m2(std::span<const Eigen::Vector3f> vertices) {
+namespace {
+
+template <class Vector>
+double area_of(std::span<const Vector> vertices) {
   Eigen::Vector3d sum = Eigen::Vector3d::Zero();
   for (std::size_t k = 0; k < vertices.size(); ++k) {
-    const Eigen::Vector3d a = vertices[k].cast<double>();
-    const Eigen::Vector3d b = vertices[(k + 1) % vertices.size()].cast<double>();
+    const Eigen::Vector3d a = vertices[k].template cast<double>();
+    const Eigen::Vector3d b = vertices[(k + 1) % vertices.size()].template cast<double>();
     sum += a.cross(b);
   }
   return 0.5 * sum.norm();
 }
+
+}  // namespace
+
+double polygon_area_m2(std::span<const Eigen::Vector3f> vertices) { return area_of(vertices); }
+double polygon_area_m2(std::span<const Eigen::Vector3d> vertices) { return area_of(vertices); }
 
 Eigen::Vector3d vertex_centroid(std::span<const Eigen::Vector3f> vertices) {
   Eigen::Vector3d sum = Eigen::Vector3d::Zero();

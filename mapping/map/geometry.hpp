@@ -58,6 +58,7 @@ PlaneBasis make_basis(const Plane3& plane, const Eigen::Vector3d& near_point);
 
 /// Polygon area (m²) by Newell's vector area: A = ½ |Σ_k v_k × v_{k+1}|.
 double polygon_area_m2(std::span<const Eigen::Vector3f> vertices);
+double polygon_area_m2(std::span<const Eigen::Vector3d> vertices);
 
 /// Mean of the vertices (m).
 Eigen::Vector3d vertex_centroid(std::span<const Eigen::Vector3f> vertices);

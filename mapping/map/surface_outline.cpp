@@ -109,12 +109,4 @@ std::vector<OutlineRing> surface_outline(const Surface& surface, double toleranc
   return out;
 }
 
-double ring_area_m2(const std::vector<Eigen::Vector3d>& ring) {
-  if (ring.size() < 3) return 0.0;
-  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
-  for (std::size_t k = 1; k + 1 < ring.size(); ++k)
-    sum += (ring[k] - ring[0]).cross(ring[k + 1] - ring[0]);
-  return 0.5 * sum.norm();
-}
-
 }  // namespace planecell::map

@@ -9,7 +9,8 @@
 
 namespace planecell::map {
 
-/// One closed ring of an outline (no repeated closing vertex), world frame.
+/// One closed ring of an outline (no repeated closing vertex), world frame; its area is
+/// polygon_area_m2(vertices_m).
 struct OutlineRing {
   std::vector<Eigen::Vector3d> vertices_m;
   bool hole = false;  ///< a hole inside the preceding outer ring
@@ -26,8 +27,5 @@ struct OutlineRing {
 /// hole that simplifies below three vertices is dropped. Empty for an empty footprint. Throws
 /// InputError when tolerance_m is negative or not finite.
 std::vector<OutlineRing> surface_outline(const Surface& surface, double tolerance_m);
-
-/// Area (m²) enclosed by a planar ring: |Σ_k (v_k − v_0) × (v_{k+1} − v_0)| / 2.
-double ring_area_m2(const std::vector<Eigen::Vector3d>& ring);
 
 }  // namespace planecell::map

@@ -8,7 +8,6 @@
 #include <memory>
 #include <numbers>
 #include <opencv2/core.hpp>
-#include <optional>
 #include <sstream>
 
 #include "core/error.hpp"
@@ -237,33 +236,24 @@ std::string describe_map_store(const fs::path& path) {
   out << "  surfaces:     " << global_map.surfaces().size() << ", " << area_m2 << " m² in all\n";
   out << "  merges:       " << store.merge_history().size() << " surface merges recorded\n";
   // Where the map is: the bounds of every integrated cell (the surfaces' bounds, fused
-  // re-observations included), and how far the camera went (centre to centre, frame order).
+  // re-observations included), and how far the camera went (path_length_m, frame order).
   map::Aabb extent;
   for (const auto& [id, surface] : global_map.surfaces()) extent.extend(surface.bounds);
   if (!extent.empty())
     out << "  extent:       x " << extent.min.x() << " … " << extent.max.x() << ", y "
         << extent.min.y() << " … " << extent.max.y() << ", z " << extent.min.z() << " … "
         << extent.max.z() << " m (world frame)\n";
+  // One pass over the committed frames: their poses, and the refined ones' corrections.
   const std::vector<std::uint64_t> frame_ids = store.frame_ids();
-  double driven_m = 0.0;
-  std::optional<Eigen::Vector3d> last_centre;
-  for (const std::uint64_t id : frame_ids) {
-    const auto pose = store.pose(id);
-    if (!pose) continue;
-    if (last_centre) driven_m += (pose->translation() - *last_centre).norm();
-    last_centre = pose->translation();
-  }
-  if (!frame_ids.empty())
-    out << "  trajectory:   frames " << frame_ids.front() << " … " << frame_ids.back() << ", "
-        << std::setprecision(2) << driven_m << " m driven\n"
-        << std::setprecision(1);
-  // Pose refinement: frames whose odometry pose was replaced, and by how much.
+  std::vector<Pose> poses;
   std::size_t refined = 0;
   double sum_m = 0.0, max_m = 0.0, max_deg = 0.0;
   for (const std::uint64_t id : frame_ids) {
-    const auto input = store.input_pose(id);
     const auto pose = store.pose(id);
-    if (!input || !pose) continue;
+    if (!pose) continue;
+    poses.push_back(*pose);
+    const auto input = store.input_pose(id);  // the odometry pose the refinement replaced
+    if (!input) continue;
     ++refined;
     const auto correction = refine::correction_between(*input, *pose);  // (ω rad, τ m)
     const double moved_m = correction.tail<3>().norm();
@@ -271,10 +261,15 @@ std::string describe_map_store(const fs::path& path) {
     max_m = std::max(max_m, moved_m);
     max_deg = std::max(max_deg, correction.head<3>().norm() * 180.0 / std::numbers::pi);
   }
+  if (!frame_ids.empty())
+    out << "  trajectory:   frames " << frame_ids.front() << " … " << frame_ids.back() << ", "
+        << std::setprecision(2) << path_length_m(poses) << " m driven\n"
+        << std::setprecision(1);
   if (refined > 0)
-    out << "  refinement:   " << refined << " of " << store.frame_count()
+    out << "  refinement:   " << refined << " of " << frame_ids.size()
         << " frames refined (odometry poses kept); correction mean " << std::setprecision(3)
-        << sum_m / static_cast<double>(refined) << " m, max " << max_m << " m / " << max_deg << " deg\n"
+        << sum_m / static_cast<double>(refined) << " m, max " << max_m << " m / " << max_deg
+        << " deg\n"
         << std::setprecision(1);
   const map::MapBytes ram = global_map.map_bytes_by_part();
   out << "  map in RAM:   " << ram.total() / 1024.0 << " KiB (cells " << ram.cells / 1024.0

@@ -65,14 +65,21 @@ void store_stage(FrameWork& work, io::MapStore& store, const map::GlobalMap& map
   work.timed("store", [&] { store.commit_frame(work.frame_id, *work.frame.pose, work.merge, map, work.input_pose); });
 }
 
-void close_store(std::unique_ptr<io::MapStore>& store) {
-  if (!store) return;
+std::optional<io::StoreBytes> close_store(std::unique_ptr<io::MapStore>& store) {
+  if (!store) return std::nullopt;
   try {
     store->compact();
   } catch (const StorageError& e) {
     spdlog::warn("{}; every frame is committed, the store is only not compacted", e.what());
   }
+  std::optional<io::StoreBytes> parts;
+  try {
+    parts = store->bytes_by_part();
+  } catch (const StorageError& e) {
+    spdlog::warn("{}; the store's pages by table are not reported", e.what());
+  }
   store.reset();
+  return parts;
 }
 
 void voxel_stage(FrameWork& work, voxel::VoxelMap& voxels, const VoxelConfig& config) {

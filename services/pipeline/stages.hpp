@@ -26,6 +26,7 @@
 
 namespace planecell::io {
 class MapStore;
+struct StoreBytes;
 struct KittiOdometrySequence;
 }  // namespace planecell::io
 namespace planecell::voxel {
@@ -117,8 +118,10 @@ void store_stage(FrameWork& work, io::MapStore& store, const map::GlobalMap& map
 
 /// End of a session: compacts the store (io::MapStore::compact; a failure, e.g. a full disk,
 /// is logged as a warning: every frame is already committed) and closes it, which checkpoints
-/// the WAL into the database. Does nothing when `store` is empty.
-void close_store(std::unique_ptr<io::MapStore>& store);
+/// the WAL into the database. Returns the compacted store's pages by table
+/// (io::MapStore::bytes_by_part; nullopt, with a warning, when they cannot be read). Does
+/// nothing when `store` is empty.
+std::optional<io::StoreBytes> close_store(std::unique_ptr<io::MapStore>& store);
 
 /// voxel: back-projects the disparity into the OctoMap voxel baseline.
 void voxel_stage(FrameWork& work, voxel::VoxelMap& voxels, const VoxelConfig& config);

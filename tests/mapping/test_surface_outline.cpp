@@ -52,7 +52,7 @@ TEST(SurfaceOutline, ASquareIsOneRingThroughItsCorners) {
   ASSERT_EQ(outline.size(), 1u);
   EXPECT_FALSE(outline[0].hole);
   EXPECT_TRUE(ring_has_corners(outline[0], {{0, 0}, {1, 0}, {1, 1}, {0, 1}}));
-  EXPECT_NEAR(ring_area_m2(outline[0].vertices_m), 1.0, 1e-9);
+  EXPECT_NEAR(polygon_area_m2(outline[0].vertices_m), 1.0, 1e-9);
 }
 
 TEST(SurfaceOutline, ARectangleAcrossTileSeamsAndNegativeCoordinatesKeepsItsFourCorners) {
@@ -62,7 +62,7 @@ TEST(SurfaceOutline, ARectangleAcrossTileSeamsAndNegativeCoordinatesKeepsItsFour
   const auto outline = surface_outline(s, 0.0);
   ASSERT_EQ(outline.size(), 1u);
   EXPECT_TRUE(ring_has_corners(outline[0], {{-1.6, -0.3}, {1.6, -0.3}, {1.6, 0.5}, {-1.6, 0.5}}));
-  EXPECT_NEAR(ring_area_m2(outline[0].vertices_m), 3.2 * 0.8, 1e-9);
+  EXPECT_NEAR(polygon_area_m2(outline[0].vertices_m), 3.2 * 0.8, 1e-9);
 }
 
 TEST(SurfaceOutline, AnAnnulusIsAnOuterRingFollowedByItsHole) {
@@ -79,7 +79,8 @@ TEST(SurfaceOutline, AnAnnulusIsAnOuterRingFollowedByItsHole) {
   EXPECT_TRUE(ring_has_corners(outline[0], {{0, 0}, {2, 0}, {2, 2}, {0, 2}}));
   EXPECT_TRUE(outline[1].hole);
   EXPECT_TRUE(ring_has_corners(outline[1], {{0.5, 0.5}, {1.5, 0.5}, {1.5, 1.5}, {0.5, 1.5}}));
-  EXPECT_NEAR(ring_area_m2(outline[0].vertices_m) - ring_area_m2(outline[1].vertices_m), 3.0, 1e-9);
+  EXPECT_NEAR(polygon_area_m2(outline[0].vertices_m) - polygon_area_m2(outline[1].vertices_m), 3.0,
+              1e-9);
 }
 
 TEST(SurfaceOutline, SimplificationKeepsASubsetOfCornersWithinTheTolerance) {
@@ -98,7 +99,7 @@ TEST(SurfaceOutline, SimplificationKeepsASubsetOfCornersWithinTheTolerance) {
   // corner (a multiple of 0.1 m), every edge runs along s or t, and consecutive edges turn by 90°
   // (no collinear vertex is left).
   const auto& stairs = exact[0].vertices_m;
-  EXPECT_NEAR(ring_area_m2(stairs), s.footprint.area_m2(), 1e-9);
+  EXPECT_NEAR(polygon_area_m2(stairs), s.footprint.area_m2(), 1e-9);
   for (std::size_t k = 0; k < stairs.size(); ++k) {
     const Eigen::Vector3d& v = stairs[k];
     EXPECT_NEAR(v.x() * 10.0, std::round(v.x() * 10.0), 1e-6);
@@ -115,7 +116,7 @@ TEST(SurfaceOutline, SimplificationKeepsASubsetOfCornersWithinTheTolerance) {
   for (const auto& v : simple[0].vertices_m)
     EXPECT_TRUE(std::any_of(exact[0].vertices_m.begin(), exact[0].vertices_m.end(),
                             [&](const Eigen::Vector3d& w) { return (v - w).norm() < 1e-9; }));
-  EXPECT_NEAR(ring_area_m2(simple[0].vertices_m), ring_area_m2(exact[0].vertices_m),
+  EXPECT_NEAR(polygon_area_m2(simple[0].vertices_m), polygon_area_m2(exact[0].vertices_m),
               2.0 * std::numbers::pi * 0.1);
 }
 
@@ -135,7 +136,7 @@ TEST(SurfaceOutline, RingsLieOnTheSurfacesCurrentPlane) {
   auto outline = surface_outline(s, 0.0);
   ASSERT_EQ(outline.size(), 1u);
   for (const auto& v : outline[0].vertices_m) EXPECT_NEAR(v.z(), 0.5, 1e-12);
-  EXPECT_NEAR(ring_area_m2(outline[0].vertices_m), 1.0, 1e-9);
+  EXPECT_NEAR(polygon_area_m2(outline[0].vertices_m), 1.0, 1e-9);
   // Turned by 60° about x (n = (0, sin 60°, cos 60°) through the origin): the footprint projects
   // onto it along n, enclosing cos 60° = 1/2 of its area.
   const double a = std::numbers::pi / 3.0;
@@ -144,7 +145,7 @@ TEST(SurfaceOutline, RingsLieOnTheSurfacesCurrentPlane) {
   outline = surface_outline(s, 0.0);
   ASSERT_EQ(outline.size(), 1u);
   for (const auto& v : outline[0].vertices_m) EXPECT_NEAR(s.plane.signed_distance(v), 0.0, 1e-12);
-  EXPECT_NEAR(ring_area_m2(outline[0].vertices_m), 0.5, 1e-9);
+  EXPECT_NEAR(polygon_area_m2(outline[0].vertices_m), 0.5, 1e-9);
 }
 
 TEST(SurfaceOutline, EmptyFootprintAndBadTolerance) {
