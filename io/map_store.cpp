@@ -562,6 +562,11 @@ StoredMap MapStore::load() const {
                                             surfaces.blob(1), surfaces.blob_size(1), where));
     if (rc != SQLITE_DONE) fail("cannot read surfaces");
   }
+  {
+    Statement last(db_, "SELECT count(*), max(frame_id) FROM frames", *this);
+    if (!last.step(rc)) fail("cannot read frames");
+    if (last.integer(0) > 0) out.last_frame_id = static_cast<std::uint64_t>(last.integer(1));
+  }
   return out;
 }
 

@@ -30,6 +30,7 @@ struct StoredMap {
   std::vector<map::Surface> surfaces;
   std::uint32_t next_cell_id = 0;
   std::uint32_t next_surface_id = 0;
+  std::optional<std::uint64_t> last_frame_id;  ///< the last committed frame; none in a new store
 };
 
 /// Bytes of the store's pages by what they hold (MapStore::bytes_by_part): SQLite pages of each
@@ -104,7 +105,7 @@ class MapStore {
 inline map::GlobalMap load_map(const MapStore& store, const MapConfig& config = {}) {
   StoredMap stored = store.load();
   return map::GlobalMap::restore(config, std::move(stored.cells), std::move(stored.surfaces),
-                                 stored.next_cell_id, stored.next_surface_id);
+                                 stored.next_cell_id, stored.next_surface_id, stored.last_frame_id);
 }
 
 }  // namespace planecell::io

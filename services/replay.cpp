@@ -212,6 +212,7 @@ ReplayReport run_replay(const ReplayOptions& options, const AppConfig& config) {
     report.fused_cells += work.merge.fused_cells;
     report.redundant_cells += work.merge.redundant_cells;
     report.replaced_cells += work.merge.replaced_cells;
+    report.consolidated_cells += work.merge.consolidated_cells;
     report.pruned_surfaces += work.merge.pruned_surfaces.size();
     report.merge_ms.push_back(work.merge.merge_ms);
     report.surface_merges += work.merge.surface_merges.size();
@@ -341,18 +342,27 @@ nlohmann::json to_json(const ReplayReport& r) {
   for (const auto& [name, s] : r.stage_latency)
     stages[name] = {{"count", s.count}, {"p50_ms", s.p50_ms}, {"p95_ms", s.p95_ms},
                     {"p99_ms", s.p99_ms}, {"max_ms", s.max_ms}, {"mean_ms", s.mean_ms}};
-  nlohmann::json out = {
-      {"sequence", r.sequence},         {"frames", r.frames},
-      {"frames_resumed", r.frames_resumed}, {"cells_extracted", r.cells_extracted},
-      {"plane_fraction", r.plane_fraction}, {"cells", r.cells_in_map},
-      {"surfaces", r.surfaces},         {"fused_cells", r.fused_cells},
-      {"redundant_cells", r.redundant_cells}, {"replaced_cells", r.replaced_cells},
-      {"pruned_surfaces", r.pruned_surfaces},
-      {"surface_merges", r.surface_merges}, {"map_bytes", r.map_bytes},
-      {"store_bytes", r.store_bytes},   {"bytes_per_frame", r.bytes_per_frame},
-      {"stage_latency", stages},        {"wall_s", r.wall_s},
-      {"threaded", r.threaded},         {"frames_per_s", r.frames_per_s},
-      {"rate_hz", r.rate_hz}};
+  nlohmann::json out = {{"sequence", r.sequence},
+                        {"frames", r.frames},
+                        {"frames_resumed", r.frames_resumed},
+                        {"cells_extracted", r.cells_extracted},
+                        {"plane_fraction", r.plane_fraction},
+                        {"cells", r.cells_in_map},
+                        {"surfaces", r.surfaces},
+                        {"fused_cells", r.fused_cells},
+                        {"redundant_cells", r.redundant_cells},
+                        {"replaced_cells", r.replaced_cells},
+                        {"consolidated_cells", r.consolidated_cells},
+                        {"pruned_surfaces", r.pruned_surfaces},
+                        {"surface_merges", r.surface_merges},
+                        {"map_bytes", r.map_bytes},
+                        {"store_bytes", r.store_bytes},
+                        {"bytes_per_frame", r.bytes_per_frame},
+                        {"stage_latency", stages},
+                        {"wall_s", r.wall_s},
+                        {"threaded", r.threaded},
+                        {"frames_per_s", r.frames_per_s},
+                        {"rate_hz", r.rate_hz}};
   nlohmann::json costs = nlohmann::json::object();
   for (const auto& [name, c] : r.stage_cost)
     costs[name] = {{"cpu_p50_ms", c.cpu.p50_ms}, {"cpu_p95_ms", c.cpu.p95_ms},
@@ -419,10 +429,11 @@ std::string summary_text(const ReplayReport& r) {
   if (r.rate_hz > 0.0) out << ", input paced at " << r.rate_hz << " Hz";
   out << "); " << r.cells_extracted << " cells extracted ("
       << 100.0 * r.plane_fraction << " % with a plane)\n";
-  out << "  map: " << r.cells_in_map << " cells, " << r.surfaces << " surfaces, "
-      << r.fused_cells << " re-observations fused (" << r.redundant_cells
-      << " by coverage), " << r.replaced_cells << " cells replaced by nearer ones, " << r.surface_merges
-      << " surface merges, " << r.pruned_surfaces << " unconfirmed surfaces pruned\n";
+  out << "  map: " << r.cells_in_map << " cells, " << r.surfaces << " surfaces, " << r.fused_cells
+      << " re-observations fused (" << r.redundant_cells << " by coverage), " << r.replaced_cells
+      << " cells replaced by nearer ones, " << r.consolidated_cells << " old cells consolidated, "
+      << r.surface_merges << " surface merges, " << r.pruned_surfaces
+      << " unconfirmed surfaces pruned\n";
   out << "  size: " << r.map_bytes / 1024.0 << " KiB in RAM (" << r.bytes_per_frame / 1024.0
       << " KiB/frame)";
   if (r.store_bytes > 0) out << ", store " << r.store_bytes / 1024.0 << " KiB on disk";

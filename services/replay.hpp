@@ -84,6 +84,8 @@ struct ReplayReport {
   std::size_t fused_cells = 0;     ///< re-observations folded into surfaces, not stored
   std::size_t redundant_cells = 0;  ///< of those, space the map already held (coverage rule)
   std::size_t replaced_cells = 0;   ///< stored cells replaced by nearer, more precise ones
+  std::size_t consolidated_cells =
+      0;                            ///< old cells united into fewer (map.consolidate_after_frames)
   std::size_t pruned_surfaces = 0;  ///< single-observation surfaces pruned as unconfirmed
   std::size_t surface_merges = 0;
   std::size_t map_bytes = 0;       ///< global map in RAM (GlobalMap::map_bytes)

@@ -102,6 +102,23 @@ struct MapConfig {
   /// (redundant_max_distance_m), so 4 m buckets register a 1 m cell in ~2 buckets instead of ~4
   /// at the same merge time as 2 m (same map: the exact tests follow the index).
   double index_cell_m = 4.0;
+  // --- consolidation: old cells retired into fewer, larger ones (map/cell_union) --------------
+  /// Cells stored this many frames ago or earlier (the camera has driven past them: at ~1 m per
+  /// frame a place leaves max_range_m within ~20 frames) are united into fewer, larger cells on
+  /// their surface's plane (map/cell_union), surface by surface, per consolidate_tile_m square of
+  /// the surface's basis (by vertex centroid), once every cell of the surface in the square is
+  /// that old: rasterised at consolidate_resolution_m, holes up to consolidate_max_hole_m2 filled,
+  /// larger ones cut around, each region's outline simplified to within consolidate_tolerance_m.
+  /// A cell takes part when its vertices all lie within max(consolidate_max_distance_m, σ_Z) of
+  /// the surface's plane (σ_Z its depth noise: the CRF's own range); one the surface's plane does
+  /// not describe keeps its own. The map then keeps its surfaces' extent to within a bit and the
+  /// tolerance, in far fewer records and vertices. 0 = off.
+  int consolidate_after_frames = 30;
+  double consolidate_tile_m = 8.0;
+  double consolidate_resolution_m = 0.05;
+  double consolidate_tolerance_m = 0.10;
+  double consolidate_max_hole_m2 = 0.5;
+  double consolidate_max_distance_m = 0.10;
   // --- queries --------------------------------------------------------------------------------
   double up_x = 0.0;  ///< world "up" (KITTI camera-style world: y down, so up = (0, −1, 0))
   double up_y = -1.0;
@@ -134,6 +151,12 @@ void visit_fields(MapConfig& c, Visitor&& visit) {
   visit("unconfirmed_timeout_frames", c.unconfirmed_timeout_frames);
   visit("footprint_resolution_m", c.footprint_resolution_m);
   visit("index_cell_m", c.index_cell_m);
+  visit("consolidate_after_frames", c.consolidate_after_frames);
+  visit("consolidate_tile_m", c.consolidate_tile_m);
+  visit("consolidate_resolution_m", c.consolidate_resolution_m);
+  visit("consolidate_tolerance_m", c.consolidate_tolerance_m);
+  visit("consolidate_max_hole_m2", c.consolidate_max_hole_m2);
+  visit("consolidate_max_distance_m", c.consolidate_max_distance_m);
   visit("up_x", c.up_x);
   visit("up_y", c.up_y);
   visit("up_z", c.up_z);

@@ -8,6 +8,7 @@
 #include <string>
 
 #include "core/error.hpp"
+#include "mapping/map/cell_union.hpp"
 #include "mapping/map/coverage.hpp"
 
 namespace planecell::map {
@@ -175,6 +176,25 @@ GlobalMap::GlobalMap(const MapConfig& config)
   if (!(config.min_inlier_ratio >= 0.0 && config.min_inlier_ratio <= 1.0))
     throw ConfigError("map.min_inlier_ratio: must be in [0, 1] (0 = no gate), got " +
                       std::to_string(config.min_inlier_ratio));
+  if (config.consolidate_after_frames > 0) {
+    auto positive = [](const char* key, double value) {
+      if (!(value > 0.0) || !std::isfinite(value))
+        throw ConfigError(std::string("map.") + key +
+                          ": must be > 0 when consolidate_after_frames > 0, got " +
+                          std::to_string(value));
+    };
+    positive("consolidate_tile_m", config.consolidate_tile_m);
+    positive("consolidate_resolution_m", config.consolidate_resolution_m);
+    if (!(config.consolidate_max_hole_m2 >= 0.0) || !std::isfinite(config.consolidate_max_hole_m2))
+      throw ConfigError("map.consolidate_max_hole_m2: must be >= 0, got " +
+                        std::to_string(config.consolidate_max_hole_m2));
+    if (!(config.consolidate_tolerance_m >= 0.0) || !std::isfinite(config.consolidate_tolerance_m))
+      throw ConfigError("map.consolidate_tolerance_m: must be >= 0, got " +
+                        std::to_string(config.consolidate_tolerance_m));
+    if (!(config.consolidate_max_distance_m >= 0.0))
+      throw ConfigError("map.consolidate_max_distance_m: must be >= 0, got " +
+                        std::to_string(config.consolidate_max_distance_m));
+  }
 }
 
 std::vector<std::uint32_t> GlobalMap::cells_near(const Aabb& box) const { return query_cells(box); }
@@ -467,6 +487,7 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
     index_.insert(stored.id, bounds_of(stored.vertices_m));
     surface.cells.push_back(stored.id);
     report.added_cells.push_back(stored.id);
+    consolidation_queue_.emplace_back(frame_id, stored.id);
     cells_.emplace(stored.id, std::move(stored));
   }
 
@@ -523,6 +544,9 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
     surface.histogram_weight_m2 = state.histogram_weight_m2;
   }
   if (config_.bridge_gap_m > 0.0) bridge_surfaces(fresh, fresh_input, camera_centre, touched, report);
+  consolidate(frame_id, touched, report);
+  if (report.consolidated_cells > 0)
+    std::erase_if(report.relabelled_cells, [&](std::uint32_t id) { return !cells_.contains(id); });
   report.updated_surfaces.assign(touched.begin(), touched.end());
   std::sort(report.relabelled_cells.begin(), report.relabelled_cells.end());
   report.relabelled_cells.erase(std::unique(report.relabelled_cells.begin(), report.relabelled_cells.end()),
@@ -617,6 +641,7 @@ MapBytes GlobalMap::map_bytes_by_part() const {
   bytes.cells = hash_map_bytes(cells_);
   bytes.surfaces = hash_map_bytes(surfaces_);
   bytes.index = index_.bytes();
+  bytes.cells += consolidation_queue_.size() * sizeof(consolidation_queue_.front());
   for (const auto& [id, cell] : cells_) bytes.vertices += cell.vertices_m.capacity() * sizeof(Eigen::Vector3f);
   for (const auto& [id, surface] : surfaces_) {
     bytes.surfaces += surface.cells.capacity() * sizeof(std::uint32_t);
@@ -640,9 +665,120 @@ void GlobalMap::prune_surface(std::uint32_t id, MergeReport& report) {
   report.pruned_surfaces.push_back(id);
 }
 
+void GlobalMap::consolidate(std::uint64_t frame_id, std::set<std::uint32_t>& touched,
+                            MergeReport& report) {
+  if (config_.consolidate_after_frames <= 0) {
+    consolidation_queue_.clear();
+    return;
+  }
+  const auto age = static_cast<std::uint64_t>(config_.consolidate_after_frames);
+  using Tile = std::pair<std::int64_t, std::int64_t>;
+  auto tile_of = [&](const Surface& surface, const MapCell& cell) {
+    const Eigen::Vector2d st =
+        surface.basis.to_2d(vertex_centroid(cell.vertices_m)) / config_.consolidate_tile_m;
+    return Tile(static_cast<std::int64_t>(std::floor(st.x())),
+                static_cast<std::int64_t>(std::floor(st.y())));
+  };
+  // The (surface, tile) squares of the cells coming of age now, in order.
+  std::set<std::pair<std::uint32_t, Tile>> due;
+  while (!consolidation_queue_.empty() && consolidation_queue_.front().first + age <= frame_id) {
+    const std::uint32_t id = consolidation_queue_.front().second;
+    consolidation_queue_.pop_front();
+    const auto it = cells_.find(id);
+    if (it == cells_.end()) continue;  // replaced or pruned since
+    const Surface& surface = surfaces_.at(it->second.surface);
+    due.emplace(surface.id, tile_of(surface, it->second));
+  }
+  const CellUnionSettings settings{config_.consolidate_resolution_m,
+                                   config_.consolidate_tolerance_m,
+                                   config_.consolidate_max_hole_m2};
+  // A union whose centroid falls in a square handled later this frame may be united again there:
+  // it then never entered the map (neither added nor removed in the report).
+  const std::uint32_t first_union = next_cell_id_;
+  const std::size_t removed_before = report.removed_cells.size();
+  for (const auto& [surface_id, tile] : due) {
+    Surface& surface = surfaces_.at(surface_id);
+    const Eigen::Vector3d n = surface.plane.normal.normalized();
+    const double e = surface.plane.offset / surface.plane.normal.norm();
+    // The square's cells, once all of them are old, that the surface's plane describes.
+    std::vector<const MapCell*> group;
+    bool complete = true;
+    for (std::uint32_t id : surface.cells) {
+      const MapCell& cell = cells_.at(id);
+      if (tile_of(surface, cell) != tile) continue;
+      if (cell.frame_id + age > frame_id) {
+        complete = false;
+        break;
+      }
+      const double reach = std::max<double>(config_.consolidate_max_distance_m, cell.depth_sigma_m);
+      if (std::all_of(cell.vertices_m.begin(), cell.vertices_m.end(),
+                      [&](const Eigen::Vector3f& v) {
+                        return std::abs(n.dot(v.cast<double>()) + e) <= reach;
+                      }))
+        group.push_back(&cell);
+    }
+    if (!complete || group.size() < 2) continue;
+    std::vector<std::span<const Eigen::Vector3f>> polygons;
+    for (const MapCell* cell : group) polygons.emplace_back(cell->vertices_m);
+    const std::vector<CellUnion> unions =
+        unite_cells(polygons, surface.basis, surface.plane, settings);
+    std::vector<MapCell> pieces;
+    std::vector<bool> member(group.size(), false);
+    for (const CellUnion& united : unions) {
+      MapCell piece;
+      piece.surface = surface_id;
+      piece.plane = surface.plane;
+      piece.vertices_m = united.vertices_m;
+      if (!cell_problem(piece.plane, piece.vertices_m, index_.max_coordinate_m()).empty()) continue;
+      // Colour and depth noise: the members' area-weighted means; age: the newest member's frame.
+      double weight = 0.0, sigma = 0.0;
+      Eigen::Vector3d rgb = Eigen::Vector3d::Zero();
+      for (std::size_t k : united.members) {
+        const MapCell& cell = *group[k];
+        const double area = polygon_area_m2(cell.vertices_m);
+        weight += area;
+        rgb += area * cell.mean_rgb.cast<double>();
+        sigma += area * cell.depth_sigma_m;
+        piece.frame_id = std::max(piece.frame_id, cell.frame_id);
+        member[k] = true;
+      }
+      piece.mean_rgb = (rgb / weight).cast<float>();
+      piece.depth_sigma_m = static_cast<float>(sigma / weight);
+      pieces.push_back(std::move(piece));
+    }
+    if (pieces.empty()) continue;
+    // The members leave (a member cut between two unions stands in both), the unions enter.
+    for (std::size_t k = 0; k < group.size(); ++k) {
+      if (!member[k]) continue;
+      const std::uint32_t id = group[k]->id;
+      index_.remove(id, bounds_of(group[k]->vertices_m));
+      std::erase(surface.cells, id);
+      report.removed_cells.push_back(id);
+      cells_.erase(id);
+      ++report.consolidated_cells;
+    }
+    for (MapCell& piece : pieces) {
+      piece.id = next_cell_id_++;
+      index_.insert(piece.id, bounds_of(piece.vertices_m));
+      surface.cells.push_back(piece.id);
+      report.added_cells.push_back(piece.id);
+      cells_.emplace(piece.id, std::move(piece));
+    }
+    touched.insert(surface_id);
+  }
+  std::erase_if(report.added_cells,
+                [&](std::uint32_t id) { return id >= first_union && !cells_.contains(id); });
+  report.removed_cells.erase(
+      std::remove_if(report.removed_cells.begin() + static_cast<std::ptrdiff_t>(removed_before),
+                     report.removed_cells.end(),
+                     [&](std::uint32_t id) { return id >= first_union; }),
+      report.removed_cells.end());
+}
+
 GlobalMap GlobalMap::restore(const MapConfig& config, std::vector<MapCell> cells,
                              std::vector<Surface> surfaces, std::uint32_t next_cell_id,
-                             std::uint32_t next_surface_id) {
+                             std::uint32_t next_surface_id,
+                             std::optional<std::uint64_t> last_frame_id) {
   GlobalMap map(config);
   for (auto& surface : surfaces) {
     const auto id = surface.id;
@@ -666,6 +802,12 @@ GlobalMap GlobalMap::restore(const MapConfig& config, std::vector<MapCell> cells
     if (surface.observations == 1 && !surface.cells.empty())
       if (const MapCell* cell = map.cell(surface.cells.front()))
         map.single_observation_since_.emplace(cell->frame_id, id);
+  // Cells the consolidation had not yet considered: stored after last_frame_id − age.
+  const auto age = static_cast<std::uint64_t>(std::max(0, config.consolidate_after_frames));
+  for (const auto& [id, cell] : map.cells_)
+    if (!last_frame_id || cell.frame_id + age > *last_frame_id)
+      map.consolidation_queue_.emplace_back(cell.frame_id, id);
+  std::sort(map.consolidation_queue_.begin(), map.consolidation_queue_.end());
   return map;
 }
 

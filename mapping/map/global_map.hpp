@@ -4,6 +4,7 @@
 /// planner queries and memory accounting.
 #include <array>
 #include <cstdint>
+#include <deque>
 #include <map>
 #include <opencv2/core/mat.hpp>
 #include <optional>
@@ -67,7 +68,11 @@ struct MergeReport {
   std::vector<std::uint32_t> added_cells;       ///< new stored cells (map ids)
   std::vector<std::uint32_t> relabelled_cells;  ///< existing cells whose surface changed
   std::size_t replaced_cells = 0;  ///< stored cells replaced by a nearer, more precise new cell
-  std::vector<std::uint32_t> removed_cells;     ///< cells deleted from the map (replaced, pruned)
+  std::vector<std::uint32_t>
+      removed_cells;  ///< cells deleted from the map (replaced, pruned, consolidated)
+  /// Old cells united into fewer, larger ones (MapConfig::consolidate_after_frames): they are in
+  /// removed_cells, the cells standing for them in added_cells.
+  std::size_t consolidated_cells = 0;
   std::vector<std::uint32_t> updated_surfaces;  ///< surfaces created or changed (alive, sorted)
   std::vector<std::uint32_t> removed_surfaces;  ///< surfaces absorbed by merges or pruned
   /// Of removed_surfaces, those pruned as unconfirmed (MapConfig::unconfirmed_max_age_frames),
@@ -176,11 +181,15 @@ class GlobalMap {
   /// map_bytes() split by what holds the bytes.
   MapBytes map_bytes_by_part() const;
 
-  /// Rebuilds a map from stored cells and surfaces (io::MapStore). Throws StorageError when a
-  /// cell names a missing surface.
+  /// Rebuilds a map from stored cells and surfaces (io::MapStore). `last_frame_id`, the last
+  /// frame integrated into them, tells which cells the consolidation has not yet considered (those
+  /// stored after last_frame_id − consolidate_after_frames), so that integrating on from the
+  /// restored map gives the same map as integrating on without a restart; without it every cell
+  /// is considered again. Throws StorageError when a cell names a missing surface.
   static GlobalMap restore(const MapConfig& config, std::vector<MapCell> cells,
                            std::vector<Surface> surfaces, std::uint32_t next_cell_id,
-                           std::uint32_t next_surface_id);
+                           std::uint32_t next_surface_id,
+                           std::optional<std::uint64_t> last_frame_id = std::nullopt);
 
   /// True when both maps hold exactly the same cells, surfaces and id counters.
   bool same_content(const GlobalMap& other) const;
@@ -209,6 +218,11 @@ class GlobalMap {
                        const Eigen::Vector3d& camera_centre, std::set<std::uint32_t>& touched,
                        MergeReport& report);
 
+  /// MapConfig::consolidate_after_frames: unites the old cells of each surface's tiles that
+  /// cells coming of age this frame fall in; the cells leave the map (report.removed_cells) and
+  /// their unions enter it (report.added_cells); `touched` gains their surfaces.
+  void consolidate(std::uint64_t frame_id, std::set<std::uint32_t>& touched, MergeReport& report);
+
   MapConfig config_;
   Eigen::Vector3d up_;
   CrfMerger merger_;
@@ -218,6 +232,9 @@ class GlobalMap {
   /// (frame stored, surface id) of the surfaces stored with a single observation, oldest first:
   /// the candidates of MapConfig::unconfirmed_timeout_frames (derived state: restore rebuilds it).
   std::multimap<std::uint64_t, std::uint32_t> single_observation_since_;
+  /// (frame stored, cell id) of the cells the consolidation has not yet considered, oldest first
+  /// (derived state: restore rebuilds it from last_frame_id).
+  std::deque<std::pair<std::uint64_t, std::uint32_t>> consolidation_queue_;
   std::uint32_t next_cell_id_ = 0;
   std::uint32_t next_surface_id_ = 0;
 };

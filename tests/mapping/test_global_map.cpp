@@ -3,11 +3,13 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <functional>
+#include <set>
 
-#include "support/planecell_fixtures.hpp"
 #include "core/error.hpp"
 #include "mapping/map/global_map.hpp"
 #include "mapping/map/pose_transform.hpp"
+#include "support/planecell_fixtures.hpp"
 
 namespace planecell::map {
 namespace {
@@ -511,6 +513,131 @@ TEST(Bridge, NegativeGapIsAConfigError) {
   MapConfig config;
   config.bridge_gap_m = -1.0;
   EXPECT_THROW(GlobalMap{config}, ConfigError);
+}
+
+/// Frame f of a drive along a 4 m wide road (y = 1.5, x ∈ [−2, 2]): the row z ∈ [2f, 2f + 2] in
+/// four 1 m × 2 m cells, all new; the camera 5 m behind the row.
+std::vector<Planecell> road_row(int f) {
+  std::vector<Planecell> cells;
+  for (int i = 0; i < 4; ++i)
+    cells.push_back(
+        rect_cell(static_cast<std::uint32_t>(i), {-2.0f + i, 1.5f, 2.0f * f}, kX, kZ * 2, 3));
+  return cells;
+}
+
+Pose road_pose(int f) {
+  Pose pose = Pose::Identity();
+  pose.translation().z() = 2.0 * f - 5.0;
+  return pose;
+}
+
+TEST(Consolidation, OldCellsOfARoadBecomeFewerCellsCoveringTheSameRoad) {
+  MapConfig config;
+  config.consolidate_after_frames = 5;
+  MapConfig off_config;
+  off_config.consolidate_after_frames = 0;
+  GlobalMap map(config), off(off_config), resumed(config);
+  constexpr int kFrames = 40;
+  std::size_t consolidated = 0, removed = 0;
+  for (int f = 0; f < kFrames; ++f) {
+    if (f == 20) {  // restored from what a store holds after frame 19
+      std::vector<MapCell> cells;
+      std::vector<Surface> surfaces;
+      for (const auto& [id, c] : map.cells()) cells.push_back(c);
+      for (const auto& [id, s] : map.surfaces()) surfaces.push_back(s);
+      resumed = GlobalMap::restore(config, cells, surfaces, map.next_cell_id(),
+                                   map.next_surface_id(), 19);
+    }
+    const auto report = map.integrate(static_cast<std::uint64_t>(f), road_pose(f), road_row(f));
+    if (f >= 20) resumed.integrate(static_cast<std::uint64_t>(f), road_pose(f), road_row(f));
+    off.integrate(static_cast<std::uint64_t>(f), road_pose(f), road_row(f));
+    // Only cells 5 frames old or older are consolidated, and they leave the map.
+    for (std::uint32_t id : report.removed_cells) EXPECT_EQ(map.cell(id), nullptr);
+    consolidated += report.consolidated_cells;
+    removed += report.removed_cells.size();
+  }
+  ASSERT_EQ(off.cells().size(), 4u * kFrames);
+  ASSERT_EQ(map.surfaces().size(), 1u);
+  EXPECT_EQ(consolidated, removed);  // nothing else left the map
+  // Frames 35–39 are younger than 5 frames: their 20 cells are as stored. An older cell stays as
+  // stored only in an 8 m square of the surface's basis that also holds a young cell (a square is
+  // consolidated once all its cells are old); every other one went into a union of two or more
+  // (the road is one surface, its old cells touch): a cell of 4 m² or more (its outline half a
+  // 5 cm bit inside), as old as its newest member.
+  const Surface& road = *map.surface(map.cells().begin()->second.surface);
+  auto square_of = [&](const MapCell& cell) {
+    const Eigen::Vector2d st =
+        road.basis.to_2d(vertex_centroid(cell.vertices_m)) / config.consolidate_tile_m;
+    return std::pair(std::floor(st.x()), std::floor(st.y()));
+  };
+  std::set<std::pair<double, double>> young_squares;
+  std::size_t young = 0;
+  for (const auto& [id, cell] : map.cells())
+    if (cell.frame_id >= 35) {
+      young +=
+          cell.vertices_m.size() == 4 && std::abs(polygon_area_m2(cell.vertices_m) - 2.0) < 1e-4;
+      young_squares.insert(square_of(cell));
+    }
+  EXPECT_EQ(young, 20u);
+  std::size_t waiting = 0;
+  for (const auto& [id, cell] : map.cells()) {
+    if (cell.frame_id >= 35) continue;
+    const double area = polygon_area_m2(cell.vertices_m);
+    if (std::abs(area - 2.0) < 1e-4) {
+      EXPECT_TRUE(young_squares.contains(square_of(cell)))
+          << "cell " << id << " of frame " << cell.frame_id;
+      ++waiting;
+    } else {
+      EXPECT_GE(area, 4.0 - 0.5) << "cell " << id << " of frame " << cell.frame_id;
+    }
+  }
+  // At most the two squares along the road that the young cells reach (10 m) hold waiting cells:
+  // 2 · 4 rows of 2 m of 4 cells. A union re-united with later cells of its square counts again.
+  EXPECT_LE(waiting, 32u);
+  EXPECT_GE(consolidated, 4u * 35 - waiting);
+  young = 20 + waiting;
+  // The consolidated road, 70 m × 4 m less the waiting rows (2 m per 4 cells), is now a handful of
+  // cells: at least one per 8 m square along it, at most two per square across it, plus the two
+  // squares at its ends.
+  const std::size_t pieces = map.cells().size() - young;
+  const double consolidated_m = 70.0 - 2.0 * static_cast<double>(waiting / 4);
+  EXPECT_GE(pieces, static_cast<std::size_t>(consolidated_m / 8.0));
+  EXPECT_LE(pieces, 2u * (70 / 8 + 2));
+  // The same road: every point 0.5 m inside a cell lies on a stored cell (point-to-plane
+  // distance 0), and every vertex stays on the road plane, within a raster bit plus the
+  // tolerance of its edges.
+  for (double z = 0.5; z < 2.0 * kFrames; z += 1.0)
+    for (double x = -1.5; x <= 1.5; x += 1.0) {
+      const auto hit = map.nearest_cell(Eigen::Vector3d(x, 1.5, z), 0.5);
+      ASSERT_TRUE(hit.has_value()) << x << ", " << z;
+      EXPECT_NEAR(hit->distance_m, 0.0, 1e-4) << x << ", " << z;
+    }
+  const double margin = config.consolidate_resolution_m + config.consolidate_tolerance_m + 1e-4;
+  for (const auto& [id, cell] : map.cells())
+    for (const auto& v : cell.vertices_m) {
+      EXPECT_NEAR(v.y(), 1.5f, 1e-4f);
+      EXPECT_LE(std::abs(v.x()), 2.0 + margin);
+      EXPECT_GE(v.z(), -margin);
+      EXPECT_LE(v.z(), 2.0 * kFrames + margin);
+    }
+  EXPECT_LT(map.map_bytes(), off.map_bytes());
+  // Restored half-way with the last frame it had seen, it consolidates what the uninterrupted map
+  // did.
+  EXPECT_TRUE(map.same_content(resumed));
+}
+
+TEST(Consolidation, BadSettingsAreConfigErrors) {
+  for (const auto& set : std::vector<std::function<void(MapConfig&)>>{
+           [](MapConfig& c) { c.consolidate_tile_m = 0.0; },
+           [](MapConfig& c) { c.consolidate_resolution_m = -0.05; },
+           [](MapConfig& c) { c.consolidate_tolerance_m = std::nan(""); },
+           [](MapConfig& c) { c.consolidate_max_distance_m = -1.0; }}) {
+    MapConfig config;
+    set(config);
+    EXPECT_THROW(GlobalMap{config}, ConfigError);
+    config.consolidate_after_frames = 0;  // off: the other settings are not used
+    EXPECT_NO_THROW(GlobalMap{config});
+  }
 }
 
 }  // namespace

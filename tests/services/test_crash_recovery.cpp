@@ -35,8 +35,11 @@ constexpr int kFrames = 24;  // enough that 20 kills never see the whole sequenc
 constexpr int kKills = 20;
 
 /// A small, fast pipeline configuration (also written as the --config file of the child).
+/// Old cells are consolidated after 4 frames: the resumed runs must also pick up the
+/// consolidation where the killed run left it.
 const char* const kConfigYaml =
-    "sgm:\n  max_disparity: 32\n  threads: 1\nextraction:\n  target_cells: 60\n";
+    "sgm:\n  max_disparity: 32\n  threads: 1\nextraction:\n  target_cells: 60\n"
+    "map:\n  consolidate_after_frames: 4\n";
 
 std::string read_text(const fs::path& p) {
   std::ifstream in(p);
