@@ -113,13 +113,18 @@ std::vector<CellUnion> unite_cells(std::span<const std::span<const Eigen::Vector
       cv::Mat upper = region.clone(), lower = region.clone();
       upper.rowRange(cut_row + 1, upper.rows).setTo(0);
       lower.rowRange(0, cut_row + 1).setTo(0);
-      for (cv::Mat* part : {&lower, &upper})
-        for (cv::Mat& piece : regions_of(*part)) todo.push_back(std::move(piece));
-      continue;
+      if (cv::countNonZero(upper) > 0 && cv::countNonZero(lower) > 0) {
+        for (cv::Mat* part : {&lower, &upper})
+          for (cv::Mat& piece : regions_of(*part)) todo.push_back(std::move(piece));
+        continue;
+      }
+      contours.clear();  // a cut that splits nothing off (never seen): no outline, no union
     }
-    contours.clear();
-    cv::findContours(region.clone(), contours, cv::RETR_EXTERNAL, cv::CHAIN_APPROX_SIMPLE);
     std::vector<cv::Point> outline;
+    if (cut_row < 0) {
+      contours.clear();
+      cv::findContours(region.clone(), contours, cv::RETR_EXTERNAL, cv::CHAIN_APPROX_SIMPLE);
+    }
     if (contours.size() == 1) {
       for (double epsilon = std::max(settings.tolerance_m / res, 1e-3);; epsilon *= 2.0) {
         cv::approxPolyDP(contours.front(), outline, epsilon, true);

@@ -722,14 +722,23 @@ void GlobalMap::consolidate(std::uint64_t frame_id, std::set<std::uint32_t>& tou
     for (const MapCell* cell : group) polygons.emplace_back(cell->vertices_m);
     const std::vector<CellUnion> unions =
         unite_cells(polygons, surface.basis, surface.plane, settings);
+    // A union the map cannot hold (cell_problem) is dropped, and its members stay.
+    std::vector<bool> member(group.size(), false), kept(group.size(), false);
+    std::vector<bool> usable(unions.size());
+    for (std::size_t u = 0; u < unions.size(); ++u) {
+      usable[u] =
+          cell_problem(surface.plane, unions[u].vertices_m, index_.max_coordinate_m()).empty();
+      for (std::size_t k : unions[u].members) (usable[u] ? member : kept)[k] = true;
+    }
+    for (std::size_t k = 0; k < group.size(); ++k) member[k] = member[k] && !kept[k];
     std::vector<MapCell> pieces;
-    std::vector<bool> member(group.size(), false);
-    for (const CellUnion& united : unions) {
+    for (std::size_t u = 0; u < unions.size(); ++u) {
+      if (!usable[u]) continue;
+      const CellUnion& united = unions[u];
       MapCell piece;
       piece.surface = surface_id;
       piece.plane = surface.plane;
       piece.vertices_m = united.vertices_m;
-      if (!cell_problem(piece.plane, piece.vertices_m, index_.max_coordinate_m()).empty()) continue;
       // Colour and depth noise: the members' area-weighted means; age: the newest member's frame.
       double weight = 0.0, sigma = 0.0;
       Eigen::Vector3d rgb = Eigen::Vector3d::Zero();
@@ -740,7 +749,6 @@ void GlobalMap::consolidate(std::uint64_t frame_id, std::set<std::uint32_t>& tou
         rgb += area * cell.mean_rgb.cast<double>();
         sigma += area * cell.depth_sigma_m;
         piece.frame_id = std::max(piece.frame_id, cell.frame_id);
-        member[k] = true;
       }
       piece.mean_rgb = (rgb / weight).cast<float>();
       piece.depth_sigma_m = static_cast<float>(sigma / weight);
