@@ -2,7 +2,7 @@
 # Builds the libFuzzer targets (tests/fuzz, clang + ASan/UBSan) in ./build-fuzz and runs each for a
 # bounded time from its seed corpus. Fails on the first target that crashes, leaks, times out on an
 # input or runs out of memory; the reproducer is left in build-fuzz/findings/<target>/.
-# Env: PLANECELL_FUZZ_SECONDS (per target, default 30), PLANECELL_FUZZ_TARGETS (space-separated
+# Env: PLANECELL_FUZZ_SECONDS (per target, default 20), PLANECELL_FUZZ_TARGETS (space-separated
 #      subset, default all), PLANECELL_FUZZ_BUILD_DIR (default build-fuzz), PLANECELL_JOBS,
 #      PLANECELL_FUZZ_SEED (libFuzzer -seed, default 1: CI replays the same mutation sequence, so a
 #      red run is reproducible; set 0 for a random seed when hunting locally).
@@ -11,7 +11,7 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 ROOT=$(pwd)
 BUILD_DIR=${PLANECELL_FUZZ_BUILD_DIR:-build-fuzz}
-SECONDS_EACH=${PLANECELL_FUZZ_SECONDS:-30}
+SECONDS_EACH=${PLANECELL_FUZZ_SECONDS:-20}
 SEED=${PLANECELL_FUZZ_SEED:-1}
 JOBS=${PLANECELL_JOBS:-$(nproc)}
 TARGETS=${PLANECELL_FUZZ_TARGETS:-"pfm kitti_disparity_png kitti_text euroc config planecell_codec map_store lcm"}
