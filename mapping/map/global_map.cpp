@@ -528,8 +528,6 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
     const auto it = surfaces_.find(id);
     if (it != surfaces_.end() && it->second.observations == 1) single_observation_since_.emplace(frame_id, id);
   }
-  if (!report.removed_cells.empty())
-    std::erase_if(report.relabelled_cells, [&](std::uint32_t id) { return !cells_.contains(id); });
 
   // 6. Surface descriptors from the merged label states (surfaces touched only by a replacement
   // keep theirs).
@@ -545,7 +543,7 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
   }
   if (config_.bridge_gap_m > 0.0) bridge_surfaces(fresh, fresh_input, camera_centre, touched, report);
   consolidate(frame_id, touched, report);
-  if (report.consolidated_cells > 0)
+  if (!report.removed_cells.empty())  // replaced, pruned or consolidated
     std::erase_if(report.relabelled_cells, [&](std::uint32_t id) { return !cells_.contains(id); });
   report.updated_surfaces.assign(touched.begin(), touched.end());
   std::sort(report.relabelled_cells.begin(), report.relabelled_cells.end());
@@ -679,108 +677,106 @@ void GlobalMap::consolidate(std::uint64_t frame_id, std::set<std::uint32_t>& tou
     return Tile(static_cast<std::int64_t>(std::floor(st.x())),
                 static_cast<std::int64_t>(std::floor(st.y())));
   };
-  // The (surface, tile) squares of the cells coming of age now, in order.
-  std::set<std::pair<std::uint32_t, Tile>> due;
+  // The squares of the cells coming of age now, by surface, in order.
+  std::map<std::uint32_t, std::set<Tile>> due;
   while (!consolidation_queue_.empty() && consolidation_queue_.front().first + age <= frame_id) {
     const std::uint32_t id = consolidation_queue_.front().second;
     consolidation_queue_.pop_front();
     const auto it = cells_.find(id);
     if (it == cells_.end()) continue;  // replaced or pruned since
-    const Surface& surface = surfaces_.at(it->second.surface);
-    due.emplace(surface.id, tile_of(surface, it->second));
+    due[it->second.surface].insert(tile_of(surfaces_.at(it->second.surface), it->second));
   }
   const CellUnionSettings settings{config_.consolidate_resolution_m,
                                    config_.consolidate_tolerance_m,
                                    config_.consolidate_max_hole_m2};
-  // A union whose centroid falls in a square handled later this frame may be united again there:
-  // it then never entered the map (neither added nor removed in the report).
+  // Unions made this frame are not united again in a later square this frame.
   const std::uint32_t first_union = next_cell_id_;
-  const std::size_t removed_before = report.removed_cells.size();
-  for (const auto& [surface_id, tile] : due) {
+  for (const auto& [surface_id, tiles] : due) {
     Surface& surface = surfaces_.at(surface_id);
     const Eigen::Vector3d n = surface.plane.normal.normalized();
     const double e = surface.plane.offset / surface.plane.normal.norm();
-    // The square's cells, once all of them are old, that the surface's plane describes.
-    std::vector<const MapCell*> group;
-    bool complete = true;
-    for (std::uint32_t id : surface.cells) {
-      const MapCell& cell = cells_.at(id);
-      if (tile_of(surface, cell) != tile) continue;
-      if (cell.frame_id + age > frame_id) {
-        complete = false;
-        break;
+    // Each due square's cells, each cell's square computed once.
+    std::map<Tile, std::vector<const MapCell*>> in_square;
+    for (std::uint32_t id : surface.cells)
+      if (const MapCell& cell = cells_.at(id); id < first_union)
+        if (const Tile tile = tile_of(surface, cell); tiles.contains(tile))
+          in_square[tile].push_back(&cell);
+    for (const auto& [tile, cells] : in_square) {
+      // The square's cells, once all of them are old, that the surface's plane describes.
+      std::vector<const MapCell*> group;
+      bool complete = true;
+      for (const MapCell* cell_ptr : cells) {
+        const MapCell& cell = *cell_ptr;
+        if (cell.frame_id + age > frame_id) {
+          complete = false;
+          break;
+        }
+        const double reach =
+            std::max<double>(config_.consolidate_max_distance_m, cell.depth_sigma_m);
+        if (std::all_of(cell.vertices_m.begin(), cell.vertices_m.end(),
+                        [&](const Eigen::Vector3f& v) {
+                          return std::abs(n.dot(v.cast<double>()) + e) <= reach;
+                        }))
+          group.push_back(&cell);
       }
-      const double reach = std::max<double>(config_.consolidate_max_distance_m, cell.depth_sigma_m);
-      if (std::all_of(cell.vertices_m.begin(), cell.vertices_m.end(),
-                      [&](const Eigen::Vector3f& v) {
-                        return std::abs(n.dot(v.cast<double>()) + e) <= reach;
-                      }))
-        group.push_back(&cell);
-    }
-    if (!complete || group.size() < 2) continue;
-    std::vector<std::span<const Eigen::Vector3f>> polygons;
-    for (const MapCell* cell : group) polygons.emplace_back(cell->vertices_m);
-    const std::vector<CellUnion> unions =
-        unite_cells(polygons, surface.basis, surface.plane, settings);
-    // A union the map cannot hold (cell_problem) is dropped, and its members stay.
-    std::vector<bool> member(group.size(), false), kept(group.size(), false);
-    std::vector<bool> usable(unions.size());
-    for (std::size_t u = 0; u < unions.size(); ++u) {
-      usable[u] =
-          cell_problem(surface.plane, unions[u].vertices_m, index_.max_coordinate_m()).empty();
-      for (std::size_t k : unions[u].members) (usable[u] ? member : kept)[k] = true;
-    }
-    for (std::size_t k = 0; k < group.size(); ++k) member[k] = member[k] && !kept[k];
-    std::vector<MapCell> pieces;
-    for (std::size_t u = 0; u < unions.size(); ++u) {
-      if (!usable[u]) continue;
-      const CellUnion& united = unions[u];
-      MapCell piece;
-      piece.surface = surface_id;
-      piece.plane = surface.plane;
-      piece.vertices_m = united.vertices_m;
-      // Colour and depth noise: the members' area-weighted means; age: the newest member's frame.
-      double weight = 0.0, sigma = 0.0;
-      Eigen::Vector3d rgb = Eigen::Vector3d::Zero();
-      for (std::size_t k : united.members) {
-        const MapCell& cell = *group[k];
-        const double area = polygon_area_m2(cell.vertices_m);
-        weight += area;
-        rgb += area * cell.mean_rgb.cast<double>();
-        sigma += area * cell.depth_sigma_m;
-        piece.frame_id = std::max(piece.frame_id, cell.frame_id);
+      if (!complete || group.size() < 2) continue;
+      std::vector<std::span<const Eigen::Vector3f>> polygons;
+      for (const MapCell* cell : group) polygons.emplace_back(cell->vertices_m);
+      const std::vector<CellUnion> unions =
+          unite_cells(polygons, surface.basis, surface.plane, settings);
+      // A union the map cannot hold (cell_problem) is dropped, and its members stay.
+      std::vector<bool> member(group.size(), false), kept(group.size(), false);
+      std::vector<bool> usable(unions.size());
+      for (std::size_t u = 0; u < unions.size(); ++u) {
+        usable[u] =
+            cell_problem(surface.plane, unions[u].vertices_m, index_.max_coordinate_m()).empty();
+        for (std::size_t k : unions[u].members) (usable[u] ? member : kept)[k] = true;
       }
-      piece.mean_rgb = (rgb / weight).cast<float>();
-      piece.depth_sigma_m = static_cast<float>(sigma / weight);
-      pieces.push_back(std::move(piece));
+      for (std::size_t k = 0; k < group.size(); ++k) member[k] = member[k] && !kept[k];
+      std::vector<MapCell> pieces;
+      for (std::size_t u = 0; u < unions.size(); ++u) {
+        if (!usable[u]) continue;
+        const CellUnion& united = unions[u];
+        MapCell piece;
+        piece.surface = surface_id;
+        piece.plane = surface.plane;
+        piece.vertices_m = united.vertices_m;
+        // Colour and depth noise: the members' area-weighted means; age: the newest member's frame.
+        double weight = 0.0, sigma = 0.0;
+        Eigen::Vector3d rgb = Eigen::Vector3d::Zero();
+        for (std::size_t k : united.members) {
+          const MapCell& cell = *group[k];
+          const double area = polygon_area_m2(cell.vertices_m);
+          weight += area;
+          rgb += area * cell.mean_rgb.cast<double>();
+          sigma += area * cell.depth_sigma_m;
+          piece.frame_id = std::max(piece.frame_id, cell.frame_id);
+        }
+        piece.mean_rgb = (rgb / weight).cast<float>();
+        piece.depth_sigma_m = static_cast<float>(sigma / weight);
+        pieces.push_back(std::move(piece));
+      }
+      if (pieces.empty()) continue;
+      // The members leave (a member cut between two unions stands in both), the unions enter.
+      for (std::size_t k = 0; k < group.size(); ++k) {
+        if (!member[k]) continue;
+        const std::uint32_t id = group[k]->id;
+        index_.remove(id, bounds_of(group[k]->vertices_m));
+        std::erase(surface.cells, id);
+        report.removed_cells.push_back(id);
+        cells_.erase(id);
+        ++report.consolidated_cells;
+      }
+      for (MapCell& piece : pieces) {
+        piece.id = next_cell_id_++;
+        index_.insert(piece.id, bounds_of(piece.vertices_m));
+        surface.cells.push_back(piece.id);
+        report.added_cells.push_back(piece.id);
+        cells_.emplace(piece.id, std::move(piece));
+      }
+      touched.insert(surface_id);
     }
-    if (pieces.empty()) continue;
-    // The members leave (a member cut between two unions stands in both), the unions enter.
-    for (std::size_t k = 0; k < group.size(); ++k) {
-      if (!member[k]) continue;
-      const std::uint32_t id = group[k]->id;
-      index_.remove(id, bounds_of(group[k]->vertices_m));
-      std::erase(surface.cells, id);
-      report.removed_cells.push_back(id);
-      cells_.erase(id);
-      ++report.consolidated_cells;
-    }
-    for (MapCell& piece : pieces) {
-      piece.id = next_cell_id_++;
-      index_.insert(piece.id, bounds_of(piece.vertices_m));
-      surface.cells.push_back(piece.id);
-      report.added_cells.push_back(piece.id);
-      cells_.emplace(piece.id, std::move(piece));
-    }
-    touched.insert(surface_id);
   }
-  std::erase_if(report.added_cells,
-                [&](std::uint32_t id) { return id >= first_union && !cells_.contains(id); });
-  report.removed_cells.erase(
-      std::remove_if(report.removed_cells.begin() + static_cast<std::ptrdiff_t>(removed_before),
-                     report.removed_cells.end(),
-                     [&](std::uint32_t id) { return id >= first_union; }),
-      report.removed_cells.end());
 }
 
 GlobalMap GlobalMap::restore(const MapConfig& config, std::vector<MapCell> cells,
