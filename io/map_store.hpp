@@ -3,11 +3,13 @@
 ///
 /// Schema: meta(key, value) with format = 'planecell-map', version and the map's id counters;
 /// frames(frame_id, pose, counts, input_pose: the odometry pose before refinement, NULL when the
-/// pose was used as given); cells(id, frame_id, surface, fields as columns, arrays as
+/// pose was used as given); cells(id, frame_id, surface, fields as columns, plane and polygon as
 /// little-endian blobs); cell_bounds (R*Tree on each cell's 3D bounds); surfaces(id, blob: the
-/// raw encoding's size as u32, then that encoding deflated by zlib, about half its bytes);
-/// merges(seq, frame_id, absorbed, into_surface). Values are stored exactly (IEEE bytes), so a
-/// reopened store rebuilds a GlobalMap equal to the one committed. Other tools can read it while
+/// encoding's size as u32, then that encoding deflated by zlib); merges(seq, frame_id, absorbed,
+/// into_surface). Blob layouts: io/map_codec (version 6: reals as floats and vertices as
+/// millimetre varints wherever that is exact, which the map's storage precision makes nearly
+/// everywhere). Every value is stored exactly, so a reopened store rebuilds a GlobalMap equal to
+/// the one committed. Other tools can read it while
 /// it is written (their brief locks are waited out for up to 5 s before a StorageError).
 /// (io/planecell_codec is not used: it is lossy and camera-frame; the map needs exact world cells.)
 #include <cstdint>
@@ -50,9 +52,11 @@ class MapStore {
  public:
   /// Opens the store at `path`, creating it when the file does not exist. An existing file that is
   /// not a planecell map (not SQLite, a foreign SQLite database, truncated or corrupt) raises
-  /// StorageError naming the path and is left untouched. A store of an earlier version is upgraded in
-  /// place in one transaction: 4 (raw surface blobs, an unused cells_by_surface index) and 3 (as 4,
-  /// and before frames kept their input poses).
+  /// StorageError naming the path and is left untouched. A store of an earlier version is upgraded
+  /// in place in one transaction: 5 (reals and vertices as raw IEEE bytes), 4 (as 5 with raw
+  /// surface blobs and an unused cells_by_surface index) and 3 (as 4, and before frames kept their
+  /// input poses). An upgraded map keeps its values bit for bit (raw forms where they are not
+  /// floats).
   explicit MapStore(const std::filesystem::path& path);
   ~MapStore();
   MapStore(const MapStore&) = delete;
@@ -66,8 +70,9 @@ class MapStore {
   void commit_frame(std::uint64_t frame_id, const Pose& T_world_cam, const map::MergeReport& report,
                     const map::GlobalMap& map, const std::optional<Pose>& input_pose = std::nullopt);
 
-  /// Rewrites the database without free pages and with full B-tree pages (SQLite VACUUM), for the
-  /// end of a session: frames committed one by one leave pages of updated surfaces half-empty.
+  /// Rewrites the database without free pages and with full B-tree pages (the R*Tree rebuilt in
+  /// cell id order, then SQLite VACUUM), for the end of a session: frames committed one by one
+  /// leave pages of updated surfaces and R*Tree nodes of deleted cells part-empty.
   /// The map read back is unchanged. Needs free disk room for a copy of the store; on failure
   /// (a full disk) the store is left as it was and StorageError names the path.
   void compact();

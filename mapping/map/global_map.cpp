@@ -217,8 +217,8 @@ void GlobalMap::absorb_surface(std::uint32_t into_id, std::uint32_t absorbed_id,
   if (w > 0.0)
     into.mean_rgb = ((into.mean_rgb * into.observed_area_m2 + absorbed.mean_rgb * absorbed.observed_area_m2) / w)
                         .cast<float>();
-  into.observed_area_m2 = w;
-  into.area_m2 = into.footprint.area_m2();
+  into.observed_area_m2 = to_float_precision(w);
+  into.area_m2 = to_float_precision(into.footprint.area_m2());
   into.bounds.extend(absorbed.bounds);
   into.observations += absorbed.observations;
   surfaces_.erase(absorbed_id);
@@ -453,6 +453,7 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
       surface.basis = make_basis(labels.at(root).plane, vertex_centroid(cell.vertices_m));
       const double half_tile_m = 0.5 * FootprintTile::kSize * config_.footprint_resolution_m;
       surface.basis.origin -= half_tile_m * (surface.basis.u + surface.basis.v);
+      surface.basis = to_float_precision(surface.basis);  // storage precision (geometry.hpp)
       surface.footprint = Footprint(config_.footprint_resolution_m);
     }
     touched.insert(root);
@@ -462,8 +463,9 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
     const double added = surface.footprint.add_polygon(project_to_basis(cell.vertices_m, surface.basis));
     const double w = surface.observed_area_m2 + area;
     surface.mean_rgb = ((surface.mean_rgb * surface.observed_area_m2 + cell.mean_rgb * area) / w).cast<float>();
-    surface.observed_area_m2 = w;
-    surface.area_m2 += added;  // incremental: per-frame work stays local to the new cells
+    surface.observed_area_m2 = to_float_precision(w);
+    // Incremental: per-frame work stays local to the new cells.
+    surface.area_m2 = to_float_precision(surface.area_m2 + added);
     surface.bounds.extend(bounds_of(cell.vertices_m));
     ++surface.observations;
     // A re-observation lying on much less precise stored cells is stored (and replaces them
@@ -484,6 +486,8 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
       entry.second.push_back(fresh[k]);
     }
     MapCell stored = map_cell_of(cell, next_cell_id_++, frame_id, root);
+    stored.plane = to_float_precision(stored.plane);  // storage precision (geometry.hpp)
+    snap_to_mm(stored.vertices_m);
     index_.insert(stored.id, bounds_of(stored.vertices_m));
     surface.cells.push_back(stored.id);
     report.added_cells.push_back(stored.id);
@@ -536,10 +540,10 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
     const auto state_it = labels.find(id);
     if (state_it == labels.end()) continue;
     const LabelState& state = state_it->second;
-    surface.plane = state.plane;
+    surface.plane = to_float_precision(state.plane);
     surface.moments = state.moments;
     surface.histogram = compact(state.histogram);
-    surface.histogram_weight_m2 = state.histogram_weight_m2;
+    surface.histogram_weight_m2 = to_float_precision(state.histogram_weight_m2);
   }
   if (config_.bridge_gap_m > 0.0) bridge_surfaces(fresh, fresh_input, camera_centre, touched, report);
   consolidate(frame_id, touched, report);
@@ -625,10 +629,10 @@ void GlobalMap::bridge_surfaces(std::span<const Planecell* const> fresh, std::sp
       fold_label(state, into_id == id ? b : a);
       absorb_surface(into_id, gone_id, touched, report);
       Surface& into = surfaces_.at(into_id);
-      into.plane = state.plane;
+      into.plane = to_float_precision(state.plane);
       into.moments = state.moments;
       into.histogram = compact(state.histogram);
-      into.histogram_weight_m2 = state.histogram_weight_m2;
+      into.histogram_weight_m2 = to_float_precision(state.histogram_weight_m2);
       id = into_id;
     }
   }
@@ -741,6 +745,7 @@ void GlobalMap::consolidate(std::uint64_t frame_id, std::set<std::uint32_t>& tou
         piece.surface = surface_id;
         piece.plane = surface.plane;
         piece.vertices_m = united.vertices_m;
+        snap_to_mm(piece.vertices_m);
         // Colour and depth noise: the members' area-weighted means; age: the newest member's frame.
         double weight = 0.0, sigma = 0.0;
         Eigen::Vector3d rgb = Eigen::Vector3d::Zero();

@@ -13,9 +13,10 @@
 #include "io/euroc.hpp"
 #include "io/image_io.hpp"
 #include "io/lcm/lcm_codec.hpp"
+#include "io/map_codec.hpp"
 #include "io/map_store.hpp"
-#include "support/expect_error.hpp"
 #include "services/pipeline/mirror_map.hpp"
+#include "support/expect_error.hpp"
 #include "support/planecell_fixtures.hpp"
 #include "support/test_data.hpp"
 
@@ -148,12 +149,13 @@ TEST(FuzzRegression, MapStoreCellWithAVertexBeyondTheIndexRange) {
   for (const float bad : {9.19716e24f, -3e7f, 250.0f}) {
     SCOPED_TRACE(bad);
     // Vertices (0,1.5,5) (bad,1.5,5) (bad,1.5,6) (0,1.5,6): beyond ±2097 km, or 250 m across.
-    std::vector<float> xyz{0, 1.5f, 5, bad, 1.5f, 5, bad, 1.5f, 6, 0, 1.5f, 6};
+    const std::vector<std::uint8_t> xyz =
+        map_codec::encode_vertices({{0, 1.5f, 5}, {bad, 1.5f, 5}, {bad, 1.5f, 6}, {0, 1.5f, 6}});
     sqlite3* db = nullptr;
     ASSERT_EQ(sqlite3_open(path.c_str(), &db), SQLITE_OK);
     sqlite3_stmt* stmt = nullptr;
     ASSERT_EQ(sqlite3_prepare_v2(db, "UPDATE cells SET vertices_m = ?", -1, &stmt, nullptr), SQLITE_OK);
-    sqlite3_bind_blob(stmt, 1, xyz.data(), static_cast<int>(xyz.size() * sizeof(float)), SQLITE_TRANSIENT);
+    sqlite3_bind_blob(stmt, 1, xyz.data(), static_cast<int>(xyz.size()), SQLITE_TRANSIENT);
     ASSERT_EQ(sqlite3_step(stmt), SQLITE_DONE);
     sqlite3_finalize(stmt);
     sqlite3_close(db);

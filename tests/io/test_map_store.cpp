@@ -12,11 +12,13 @@
 #include <fstream>
 #include <functional>
 #include <sstream>
+#include <tuple>
 
-#include "support/planecell_fixtures.hpp"
 #include "core/error.hpp"
+#include "io/map_codec.hpp"
 #include "io/map_store.hpp"
 #include "support/expect_error.hpp"
+#include "support/planecell_fixtures.hpp"
 #include "support/test_data.hpp"
 
 namespace planecell::io {
@@ -267,7 +269,7 @@ TEST(MapStoreTest, OtherFormatVersionIsRejectedByNameAndLeftUnchanged) {
     FAIL() << "expected StorageError";
   } catch (const StorageError& e) {
     const std::string what = e.what();
-    EXPECT_NE(what.find("version '2' is not the version 5"), std::string::npos) << what;
+    EXPECT_NE(what.find("version '2' is not the version 6"), std::string::npos) << what;
     EXPECT_NE(what.find(path.string()), std::string::npos) << what;
   }
   EXPECT_EQ(read_bytes(path), before);
@@ -325,11 +327,12 @@ void edit_first_surface(const std::filesystem::path& path,
   ASSERT_EQ(edit_surfaces(path, edit, true), 1u);
 }
 
-/// Rewrites a current (version 5) store as an earlier release wrote it: surface blobs raw (the
+/// Rewrites a current (version 6) store as an earlier release wrote it: surface blobs (the
 /// deflated stream after the 4-byte raw size, inflated here with zlib directly, which also checks
-/// the documented layout), the cells_by_surface index, and for version 3 no frames.input_pose.
+/// the documented layout) and cell planes and vertices re-encoded as `version` wrote them, for
+/// 3 and 4 the cells_by_surface index, and for 3 no frames.input_pose.
 void make_legacy_store(const std::filesystem::path& path, int version) {
-  const std::size_t surfaces = edit_surfaces(path, [](std::vector<std::uint8_t>& data) {
+  const std::size_t surfaces = edit_surfaces(path, [&](std::vector<std::uint8_t>& data) {
     ASSERT_GT(data.size(), 4u);
     std::uint32_t raw_size = 0;
     std::memcpy(&raw_size, data.data(), 4);
@@ -337,15 +340,43 @@ void make_legacy_store(const std::filesystem::path& path, int version) {
     uLongf inflated = raw_size;
     ASSERT_EQ(uncompress(raw.data(), &inflated, data.data() + 4, data.size() - 4), Z_OK);
     ASSERT_EQ(inflated, raw_size);
-    EXPECT_LT(data.size(), raw.size()) << "a deflated surface is smaller than its raw encoding";
-    data = std::move(raw);
+    data = map_codec::encode_surface(map_codec::decode_surface(0, data.data(), data.size(), "test"),
+                                     version);
   });
   ASSERT_GT(surfaces, 0u);
   sqlite3* db = nullptr;
   ASSERT_EQ(sqlite3_open(path.c_str(), &db), SQLITE_OK);
-  const std::string sql = "CREATE INDEX cells_by_surface ON cells(surface); UPDATE meta SET value='" +
-                          std::to_string(version) + "' WHERE key='version';" +
-                          (version == 3 ? "ALTER TABLE frames DROP COLUMN input_pose;" : "");
+  std::vector<std::tuple<std::int64_t, std::vector<std::uint8_t>, std::vector<std::uint8_t>>> cells;
+  sqlite3_stmt* read = nullptr;
+  ASSERT_EQ(sqlite3_prepare_v2(db, "SELECT id, plane, vertices_m FROM cells", -1, &read, nullptr),
+            SQLITE_OK);
+  while (sqlite3_step(read) == SQLITE_ROW) {
+    const auto plane = map_codec::decode_plane(sqlite3_column_blob(read, 1),
+                                               sqlite3_column_bytes(read, 1), "test");
+    const auto vertices = map_codec::decode_vertices(sqlite3_column_blob(read, 2),
+                                                     sqlite3_column_bytes(read, 2), "test");
+    cells.emplace_back(sqlite3_column_int64(read, 0), map_codec::encode_plane(plane, version),
+                       map_codec::encode_vertices(vertices, version));
+  }
+  sqlite3_finalize(read);
+  ASSERT_FALSE(cells.empty());
+  sqlite3_stmt* write = nullptr;
+  ASSERT_EQ(sqlite3_prepare_v2(db, "UPDATE cells SET plane = ?, vertices_m = ? WHERE id = ?", -1,
+                               &write, nullptr),
+            SQLITE_OK);
+  for (const auto& [id, plane, vertices] : cells) {
+    sqlite3_bind_blob(write, 1, plane.data(), static_cast<int>(plane.size()), SQLITE_TRANSIENT);
+    sqlite3_bind_blob(write, 2, vertices.data(), static_cast<int>(vertices.size()),
+                      SQLITE_TRANSIENT);
+    sqlite3_bind_int64(write, 3, id);
+    EXPECT_EQ(sqlite3_step(write), SQLITE_DONE);
+    sqlite3_reset(write);
+  }
+  sqlite3_finalize(write);
+  const std::string sql =
+      std::string(version <= 4 ? "CREATE INDEX cells_by_surface ON cells(surface);" : "") +
+      "UPDATE meta SET value='" + std::to_string(version) + "' WHERE key='version';" +
+      (version == 3 ? "ALTER TABLE frames DROP COLUMN input_pose;" : "");
   ASSERT_EQ(sqlite3_exec(db, sql.c_str(), nullptr, nullptr, nullptr), SQLITE_OK) << sqlite3_errmsg(db);
   sqlite3_close(db);
 }
@@ -365,27 +396,33 @@ std::vector<std::string> index_names(const std::filesystem::path& path) {
   return names;
 }
 
-TEST(MapStoreTest, VersionFourStoreIsUpgradedInPlaceAndResumes) {
-  test::ScratchDir dir;
-  const auto path = dir / "v4.db";
-  map::GlobalMap written;
-  {
-    MapStore store(path);
-    drive(written, 4, &store);
-    store.commit_frame(4, frame_pose(4), written.integrate(4, frame_pose(4), frame_cells(4)), written,
-                       frame_pose(3));
+/// Versions 5 (raw reals and float vertices) and 4 (as 5 with raw surface blobs and the
+/// cells_by_surface index) are upgraded to compact reals and millimetre vertices: the map and
+/// input poses read back are the ones written, and the store reads as version 6 afterwards.
+TEST(MapStoreTest, VersionFiveAndFourStoresAreUpgradedInPlaceAndResume) {
+  for (const int version : {5, 4}) {
+    SCOPED_TRACE(version);
+    test::ScratchDir dir;
+    const auto path = dir / "old.db";
+    map::GlobalMap written;
+    {
+      MapStore store(path);
+      drive(written, 4, &store);
+      store.commit_frame(4, frame_pose(4), written.integrate(4, frame_pose(4), frame_cells(4)),
+                         written, frame_pose(3));
+    }
+    make_legacy_store(path, version);
+    ASSERT_EQ(index_names(path).size(), version == 4 ? 1u : 0u);
+    {
+      MapStore store(path);
+      EXPECT_EQ(store.frame_count(), 5u);
+      EXPECT_TRUE(store.input_pose(4)->isApprox(frame_pose(3), 0.0));  // kept through the upgrade
+      EXPECT_TRUE(load_map(store).same_content(written));
+    }
+    EXPECT_TRUE(index_names(path).empty());
+    MapStore again(path);  // version 6 now: read as it is
+    EXPECT_TRUE(load_map(again).same_content(written));
   }
-  make_legacy_store(path, 4);
-  ASSERT_EQ(index_names(path), std::vector<std::string>{"cells_by_surface"});
-  {
-    MapStore store(path);
-    EXPECT_EQ(store.frame_count(), 5u);
-    EXPECT_TRUE(store.input_pose(4)->isApprox(frame_pose(3), 0.0));  // kept through the upgrade
-    EXPECT_TRUE(load_map(store).same_content(written));
-  }
-  EXPECT_TRUE(index_names(path).empty());
-  MapStore again(path);  // version 5 now: read as it is
-  EXPECT_TRUE(load_map(again).same_content(written));
 }
 
 TEST(MapStoreTest, VersionThreeStoreIsUpgradedInPlaceAndResumes) {
@@ -409,7 +446,7 @@ TEST(MapStoreTest, VersionThreeStoreIsUpgradedInPlaceAndResumes) {
     store.commit_frame(3, frame_pose(3), report, resumed, frame_pose(2));
     EXPECT_TRUE(store.input_pose(3)->isApprox(frame_pose(2), 0.0));
   }
-  // Reopened: version 5 now, no second upgrade.
+  // Reopened: version 6 now, no second upgrade.
   MapStore again(path);
   EXPECT_EQ(again.frame_count(), 4u);
   EXPECT_TRUE(again.input_pose(3)->isApprox(frame_pose(2), 0.0));
@@ -502,6 +539,13 @@ TEST(MapStoreTest, CompactionShrinksTheFileAndKeepsTheMapWritable) {
   MapStore store(path);
   EXPECT_EQ(store.frame_count(), 120u);
   EXPECT_TRUE(load_map(store).same_content(map));
+  // The rebuilt R*Tree answers box queries as the map's own index does.
+  for (const map::Aabb& box :
+       {map::Aabb{Eigen::Vector3d(-2, -2, 0), Eigen::Vector3d(2, 2, 30)},
+        map::Aabb{Eigen::Vector3d(-50, -50, -50), Eigen::Vector3d(50, 50, 500)}}) {
+    EXPECT_EQ(store.cells_in_box(box), map.cells_near(box));
+    EXPECT_FALSE(store.cells_in_box(box).empty());
+  }
   const auto report = map.integrate(120, frame_pose(120), frame_cells(120, 24));
   store.commit_frame(120, frame_pose(120), report, map);
   EXPECT_TRUE(load_map(store).same_content(map));

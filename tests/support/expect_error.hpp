@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <string>
+#include <utility>
 
 #include "core/error.hpp"
 
@@ -13,17 +14,23 @@
 
 namespace planecell::test {
 
-/// Runs `fn`, returns the message of the InputError it throws; records a failure when it throws
+/// Runs `fn`, returns the message of the `Error` it throws; records a failure when it throws
 /// none.
-template <class Fn>
-std::string input_error_of(Fn&& fn) {
+template <class Error, class Fn>
+std::string error_of(Fn&& fn) {
   try {
     fn();
-  } catch (const InputError& e) {
+  } catch (const Error& e) {
     return e.what();
   }
-  ADD_FAILURE() << "no InputError";
+  ADD_FAILURE() << "no exception of the expected type";
   return {};
+}
+
+/// error_of<InputError>.
+template <class Fn>
+std::string input_error_of(Fn&& fn) {
+  return error_of<InputError>(std::forward<Fn>(fn));
 }
 
 }  // namespace planecell::test

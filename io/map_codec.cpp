@@ -1,0 +1,356 @@
+#include "io/map_codec.hpp"
+
+#include <zlib.h>
+
+#include <array>
+#include <cmath>
+#include <cstring>
+#include <optional>
+#include <span>
+
+#include "core/error.hpp"
+#include "io/blob_bytes.hpp"
+#include "mapping/map/geometry.hpp"
+
+namespace planecell::io::map_codec {
+namespace {
+
+using blob::Reader;
+using blob::Writer;
+
+void check_version(int version) {
+  if (version < kOldestVersion || version > kCurrentVersion)
+    throw StorageError("map codec: store version " + std::to_string(version) + " is not in [" +
+                       std::to_string(kOldestVersion) + ", " + std::to_string(kCurrentVersion) +
+                       "]");
+}
+
+/// A group of reals: flag 1 and floats when every value is exactly a float, else flag 0 and
+/// doubles.
+void put_reals(Writer& w, std::span<const double> values) {
+  bool floats = true;
+  for (double x : values) floats = floats && map::to_float_precision(x) == x;
+  // NaN never equals itself: a NaN group is written as doubles, bit for bit.
+  w.put(static_cast<std::uint8_t>(floats ? 1 : 0));
+  for (double x : values) floats ? w.put(static_cast<float>(x)) : w.put(x);
+}
+
+void get_reals(Reader& r, std::span<double> values) {
+  const auto flag = r.get<std::uint8_t>();
+  if (flag > 1)
+    throw StorageError(r.what() + ": real group flag " + std::to_string(flag) +
+                       " is neither 0 nor 1");
+  for (double& x : values) x = flag == 1 ? static_cast<double>(r.get<float>()) : r.get<double>();
+}
+
+template <int N>
+void put_reals(Writer& w, const Eigen::Matrix<double, N, 1>& v) {
+  put_reals(w, std::span<const double>(v.data(), N));
+}
+template <int N>
+void get_reals(Reader& r, Eigen::Matrix<double, N, 1>& v) {
+  get_reals(r, std::span<double>(v.data(), N));
+}
+
+std::uint64_t zigzag(std::int64_t v) {
+  return (static_cast<std::uint64_t>(v) << 1) ^ static_cast<std::uint64_t>(v >> 63);
+}
+std::int64_t unzigzag(std::uint64_t u) {
+  return static_cast<std::int64_t>(u >> 1) ^ -static_cast<std::int64_t>(u & 1);
+}
+
+/// The millimetre count k with float(k / 1000) == x, if there is one within ±10⁹ m.
+std::optional<std::int64_t> whole_mm(float x) {
+  if (!(std::abs(x) < 1e9f) || (x == 0.0f && std::signbit(x))) return std::nullopt;  // -0 stays raw
+  const std::int64_t k = std::llround(static_cast<double>(x) * 1000.0);
+  if (static_cast<float>(static_cast<double>(k) / 1000.0) != x) return std::nullopt;
+  return k;
+}
+
+/// Versions 3–5: the raw surface encoding, doubles as they are.
+std::vector<std::uint8_t> encode_surface_raw_v5(const map::Surface& s) {
+  Writer w;
+  w.put_matrix(s.plane.normal);
+  w.put(s.plane.offset);
+  w.put(s.moments.weight);
+  w.put_matrix(s.moments.sum);
+  w.put_matrix(s.moments.sum_outer);
+  for (std::uint16_t h : s.histogram) w.put(h);
+  w.put(s.histogram_weight_m2);
+  w.put_matrix(s.mean_rgb);
+  w.put(s.observed_area_m2);
+  w.put(s.area_m2);
+  w.put_matrix(s.bounds.min);
+  w.put_matrix(s.bounds.max);
+  w.put_matrix(s.basis.origin);
+  w.put_matrix(s.basis.u);
+  w.put_matrix(s.basis.v);
+  w.put(s.observations);
+  w.put(static_cast<std::uint32_t>(s.cells.size()));
+  for (auto id : s.cells) w.put(id);
+  w.put(s.footprint.resolution_m());
+  w.put(static_cast<std::uint32_t>(s.footprint.tiles().size()));
+  for (const auto& tile : s.footprint.tiles()) {
+    w.put(tile.s), w.put(tile.t);
+    for (std::uint32_t row : tile.rows) w.put(row);
+  }
+  return std::move(w.bytes);
+}
+
+/// Version 6: reals as float groups where exact, counts and ids as varints.
+std::vector<std::uint8_t> encode_surface_raw_v6(const map::Surface& s) {
+  Writer w;
+  put_reals(w,
+            std::array{s.plane.normal.x(), s.plane.normal.y(), s.plane.normal.z(), s.plane.offset});
+  w.put(s.moments.weight);
+  w.put_matrix(s.moments.sum);
+  w.put_matrix(s.moments.sum_outer);
+  for (std::uint16_t h : s.histogram) w.put(h);
+  put_reals(w, std::array{s.histogram_weight_m2, s.observed_area_m2, s.area_m2});
+  w.put_matrix(s.mean_rgb);
+  put_reals(w, std::array{s.bounds.min.x(), s.bounds.min.y(), s.bounds.min.z(), s.bounds.max.x(),
+                          s.bounds.max.y(), s.bounds.max.z()});
+  put_reals(w, s.basis.origin);
+  put_reals(w, std::array{s.basis.u.x(), s.basis.u.y(), s.basis.u.z(), s.basis.v.x(), s.basis.v.y(),
+                          s.basis.v.z()});
+  w.put_varint(s.observations);
+  w.put_varint(s.cells.size());
+  for (auto id : s.cells) w.put_varint(id);
+  w.put(s.footprint.resolution_m());
+  w.put_varint(s.footprint.tiles().size());
+  for (const auto& tile : s.footprint.tiles()) {
+    w.put(tile.s), w.put(tile.t);
+    for (std::uint32_t row : tile.rows) w.put(row);
+  }
+  return std::move(w.bytes);
+}
+
+map::Surface decode_surface_raw(std::uint32_t id, const void* data, std::size_t size,
+                                const std::string& where, int version) {
+  Reader r(data, size, where + ": surface " + std::to_string(id));
+  map::Surface s;
+  s.id = id;
+  const bool v6 = version >= 6;
+  if (v6) {
+    std::array<double, 4> plane{};
+    get_reals(r, plane);
+    s.plane.normal = {plane[0], plane[1], plane[2]};
+    s.plane.offset = plane[3];
+  } else {
+    r.get_matrix(s.plane.normal);
+    s.plane.offset = r.get<double>();
+  }
+  s.moments.weight = r.get<double>();
+  r.get_matrix(s.moments.sum);
+  r.get_matrix(s.moments.sum_outer);
+  for (std::uint16_t& h : s.histogram) h = r.get<std::uint16_t>();
+  if (v6) {
+    std::array<double, 3> areas{};
+    get_reals(r, areas);
+    s.histogram_weight_m2 = areas[0], s.observed_area_m2 = areas[1], s.area_m2 = areas[2];
+    r.get_matrix(s.mean_rgb);
+    std::array<double, 6> bounds{};
+    get_reals(r, bounds);
+    s.bounds.min = {bounds[0], bounds[1], bounds[2]};
+    s.bounds.max = {bounds[3], bounds[4], bounds[5]};
+    get_reals(r, s.basis.origin);
+    std::array<double, 6> uv{};
+    get_reals(r, uv);
+    s.basis.u = {uv[0], uv[1], uv[2]};
+    s.basis.v = {uv[3], uv[4], uv[5]};
+    const auto observations = r.get_varint();
+    if (observations > UINT32_MAX) throw StorageError(r.what() + ": observation count beyond 2^32");
+    s.observations = static_cast<std::uint32_t>(observations);
+    const auto cells = r.get_varint();
+    if (cells > size)
+      throw StorageError(r.what() + ": cell count " + std::to_string(cells) + " exceeds the blob");
+    s.cells.resize(cells);
+    for (auto& c : s.cells) {
+      const auto cell = r.get_varint();
+      if (cell > UINT32_MAX) throw StorageError(r.what() + ": cell id beyond 2^32");
+      c = static_cast<std::uint32_t>(cell);
+    }
+  } else {
+    s.histogram_weight_m2 = r.get<double>();
+    r.get_matrix(s.mean_rgb);
+    s.observed_area_m2 = r.get<double>();
+    s.area_m2 = r.get<double>();
+    r.get_matrix(s.bounds.min);
+    r.get_matrix(s.bounds.max);
+    r.get_matrix(s.basis.origin);
+    r.get_matrix(s.basis.u);
+    r.get_matrix(s.basis.v);
+    s.observations = r.get<std::uint32_t>();
+    s.cells.resize(r.count(sizeof(std::uint32_t)));
+    for (auto& c : s.cells) c = r.get<std::uint32_t>();
+  }
+  const auto resolution_m = r.get<double>();
+  if (!(resolution_m > 0.0 && resolution_m <= 10.0))
+    throw StorageError(where + ": surface " + std::to_string(id) +
+                       " has an invalid footprint resolution");
+  std::size_t tile_count = 0;
+  if (v6) {
+    tile_count = r.get_varint();
+    if (tile_count > size / sizeof(map::FootprintTile))
+      throw StorageError(r.what() + ": tile count " + std::to_string(tile_count) +
+                         " exceeds the blob");
+  } else {
+    tile_count = r.count(sizeof(map::FootprintTile));
+  }
+  std::vector<map::FootprintTile> tiles(tile_count);
+  for (auto& tile : tiles) {
+    tile.s = r.get<std::int32_t>(), tile.t = r.get<std::int32_t>();
+    for (std::uint32_t& row : tile.rows) row = r.get<std::uint32_t>();
+  }
+  try {
+    s.footprint = map::Footprint::from_tiles(resolution_m, std::move(tiles));
+  } catch (const StorageError& e) {
+    throw StorageError(where + ": surface " + std::to_string(id) + ": " + e.what());
+  }
+  r.expect_end();
+  return s;
+}
+
+/// Largest raw surface encoding a stored blob may claim (a corrupt size is refused, not allocated):
+/// 64 MiB ≈ 490 000 footprint tiles, tens of km² at the default 10 cm footprint resolution.
+constexpr std::uint32_t kMaxRawSurfaceBytes = 64u << 20;
+
+}  // namespace
+
+/// Versions 5 and 6: the raw encoding's size (u32, little-endian), then the raw encoding deflated
+/// as a zlib stream (RFC 1950, what zlib's compress2/uncompress read and write). The footprint's
+/// occupancy bits and the 64-bin histogram are mostly zeros and runs.
+std::vector<std::uint8_t> encode_surface(const map::Surface& s, int version) {
+  check_version(version);
+  const std::vector<std::uint8_t> raw =
+      version >= 6 ? encode_surface_raw_v6(s) : encode_surface_raw_v5(s);
+  if (raw.size() > kMaxRawSurfaceBytes)
+    throw StorageError("surface " + std::to_string(s.id) + ": encoding of " +
+                       std::to_string(raw.size()) + " bytes exceeds the store's limit of " +
+                       std::to_string(kMaxRawSurfaceBytes));
+  if (version <= 4) return raw;
+  std::vector<std::uint8_t> out(sizeof(std::uint32_t) +
+                                compressBound(static_cast<uLong>(raw.size())));
+  const auto raw_size = static_cast<std::uint32_t>(raw.size());
+  std::memcpy(out.data(), &raw_size, sizeof(raw_size));
+  auto deflated = static_cast<uLongf>(out.size() - sizeof(raw_size));
+  if (compress2(out.data() + sizeof(raw_size), &deflated, raw.data(), raw.size(),
+                Z_DEFAULT_COMPRESSION) != Z_OK)
+    throw StorageError("surface " + std::to_string(s.id) + ": zlib cannot deflate its encoding");
+  out.resize(sizeof(raw_size) + deflated);
+  return out;
+}
+
+map::Surface decode_surface(std::uint32_t id, const void* data, std::size_t size,
+                            const std::string& where, int version) {
+  check_version(version);
+  if (version <= 4) return decode_surface_raw(id, data, size, where, version);
+  const std::string what = where + ": surface " + std::to_string(id);
+  Reader r(data, size, what);
+  const auto raw_size = r.get<std::uint32_t>();
+  if (raw_size > kMaxRawSurfaceBytes)
+    throw StorageError(what + ": claims " + std::to_string(raw_size) +
+                       " bytes, beyond the limit of " + std::to_string(kMaxRawSurfaceBytes));
+  std::vector<std::uint8_t> raw(raw_size);
+  auto inflated = static_cast<uLongf>(raw.size());
+  const int rc =
+      uncompress(raw.data(), &inflated, static_cast<const Bytef*>(data) + sizeof(raw_size),
+                 static_cast<uLong>(size - sizeof(raw_size)));
+  if (rc != Z_OK || inflated != raw_size)
+    throw StorageError(what + ": compressed data is corrupt (zlib: " +
+                       (rc == Z_OK ? std::string("size mismatch") : std::string(zError(rc))) + ")");
+  return decode_surface_raw(id, raw.data(), raw.size(), where, version);
+}
+
+std::vector<std::uint8_t> encode_plane(const Plane3& plane, int version) {
+  check_version(version);
+  Writer w;
+  if (version >= 6) {
+    put_reals(w, std::array{plane.normal.x(), plane.normal.y(), plane.normal.z(), plane.offset});
+  } else {
+    w.put_matrix(plane.normal);
+    w.put(plane.offset);
+  }
+  return std::move(w.bytes);
+}
+
+Plane3 decode_plane(const void* data, std::size_t size, const std::string& what, int version) {
+  check_version(version);
+  Reader r(data, size, what);
+  Plane3 plane;
+  if (version >= 6) {
+    std::array<double, 4> v{};
+    get_reals(r, v);
+    plane.normal = {v[0], v[1], v[2]};
+    plane.offset = v[3];
+  } else {
+    r.get_matrix(plane.normal);
+    plane.offset = r.get<double>();
+  }
+  r.expect_end();
+  return plane;
+}
+
+std::vector<std::uint8_t> encode_vertices(const std::vector<Eigen::Vector3f>& vertices,
+                                          int version) {
+  check_version(version);
+  Writer w;
+  std::vector<std::int64_t> mm;
+  if (version >= 6) {
+    mm.reserve(3 * vertices.size());
+    bool on_grid = true;
+    for (const auto& v : vertices)
+      for (int i = 0; i < 3 && on_grid; ++i) {
+        const auto k = whole_mm(v(i));
+        on_grid = k.has_value();
+        if (on_grid) mm.push_back(*k);
+      }
+    w.put(static_cast<std::uint8_t>(on_grid ? 1 : 0));
+    if (on_grid) {
+      std::array<std::int64_t, 3> previous{};
+      for (std::size_t k = 0; k < mm.size(); ++k) {
+        w.put_varint(zigzag(mm[k] - previous[k % 3]));
+        previous[k % 3] = mm[k];
+      }
+      return std::move(w.bytes);
+    }
+  }
+  for (const auto& v : vertices) w.put_matrix(v);
+  return std::move(w.bytes);
+}
+
+std::vector<Eigen::Vector3f> decode_vertices(const void* data, std::size_t size,
+                                             const std::string& what, int version) {
+  check_version(version);
+  Reader r(data, size, what);
+  std::uint8_t tag = 0;
+  if (version >= 6) {
+    tag = r.get<std::uint8_t>();
+    if (tag > 1)
+      throw StorageError(what + ": vertex encoding tag " + std::to_string(tag) +
+                         " is neither 0 nor 1");
+  }
+  std::vector<Eigen::Vector3f> out;
+  if (tag == 1) {
+    std::array<std::uint64_t, 3> previous{};  // unsigned: a corrupt delta wraps, no overflow
+    while (!r.at_end()) {
+      Eigen::Vector3f v;
+      for (int i = 0; i < 3; ++i) {
+        previous[i] += static_cast<std::uint64_t>(unzigzag(r.get_varint()));
+        v(i) = static_cast<float>(static_cast<double>(static_cast<std::int64_t>(previous[i])) /
+                                  1000.0);
+      }
+      out.push_back(v);
+    }
+    return out;
+  }
+  const std::size_t rest = size - (version >= 6 ? 1 : 0);
+  if (rest % sizeof(Eigen::Vector3f) != 0)
+    throw StorageError(what + ": blob size " + std::to_string(rest) + " is not a multiple of " +
+                       std::to_string(sizeof(Eigen::Vector3f)));
+  out.resize(rest / sizeof(Eigen::Vector3f));
+  for (auto& v : out) r.get_matrix(v);
+  return out;
+}
+
+}  // namespace planecell::io::map_codec

@@ -1,0 +1,192 @@
+/// The map store's blob encodings (io/map_codec): lossless in every version, compact where the map
+/// rounded its values to storage precision, and corrupt blobs named, never misread.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstring>
+#include <limits>
+#include <random>
+
+#include "core/error.hpp"
+#include "io/map_codec.hpp"
+#include "mapping/map/geometry.hpp"
+#include "support/expect_error.hpp"
+
+namespace planecell::io {
+namespace {
+
+/// The message of the StorageError `fn` throws; a failure when it throws none.
+template <class Fn>
+std::string storage_error_of(Fn&& fn) {
+  return test::error_of<StorageError>(std::forward<Fn>(fn));
+}
+
+/// A surface whose reals a float cannot hold: seeded random doubles (irregular mantissas, which
+/// deflate cannot shorten, as in a real map).
+map::Surface awkward_surface() {
+  std::mt19937_64 rng(42);
+  std::uniform_real_distribution<double> real(-10.0, 10.0);
+  const auto vec = [&] { return Eigen::Vector3d(real(rng), real(rng), real(rng)); };
+  map::Surface s;
+  s.id = 7;
+  s.plane.normal = vec().normalized();
+  s.plane.offset = real(rng);
+  s.moments.weight = std::abs(real(rng));
+  s.moments.sum = vec();
+  s.moments.sum_outer << vec(), vec(), vec();
+  for (std::size_t q = 0; q < s.histogram.size(); ++q)
+    s.histogram[q] = static_cast<std::uint16_t>(q * q % 97);
+  s.histogram_weight_m2 = std::abs(real(rng));
+  s.mean_rgb = {10.5f, 20.25f, 200.0f};
+  s.observed_area_m2 = std::abs(real(rng));
+  s.area_m2 = std::abs(real(rng));
+  s.bounds.min = vec();
+  s.bounds.max = s.bounds.min + vec().cwiseAbs();
+  s.basis.origin = vec();
+  s.basis.u = vec().normalized();
+  s.basis.v = s.basis.u.unitOrthogonal();
+  s.cells = {3, 900, 70000, 5};
+  s.observations = 300;
+  s.footprint = map::Footprint(0.1);
+  const std::vector<Eigen::Vector2d> square{{0.0, 0.0}, {2.0, 0.0}, {2.0, 1.5}, {0.0, 1.5}};
+  s.footprint.add_polygon(square);
+  return s;
+}
+
+/// The same surface at the map's storage precision (what GlobalMap keeps).
+map::Surface rounded(map::Surface s) {
+  s.plane = map::to_float_precision(s.plane);
+  s.basis = map::to_float_precision(s.basis);
+  s.histogram_weight_m2 = map::to_float_precision(s.histogram_weight_m2);
+  s.observed_area_m2 = map::to_float_precision(s.observed_area_m2);
+  s.area_m2 = map::to_float_precision(s.area_m2);
+  s.bounds.min = s.bounds.min.cast<float>().cast<double>();
+  s.bounds.max = s.bounds.max.cast<float>().cast<double>();
+  return s;
+}
+
+void expect_identical(const map::Surface& a, const map::Surface& b) {
+  EXPECT_EQ(a.id, b.id);
+  EXPECT_EQ(a.plane.normal, b.plane.normal);
+  EXPECT_EQ(a.plane.offset, b.plane.offset);
+  EXPECT_EQ(a.moments.weight, b.moments.weight);
+  EXPECT_EQ(a.moments.sum, b.moments.sum);
+  EXPECT_EQ(a.moments.sum_outer, b.moments.sum_outer);
+  EXPECT_EQ(a.histogram, b.histogram);
+  EXPECT_EQ(a.histogram_weight_m2, b.histogram_weight_m2);
+  EXPECT_EQ(a.mean_rgb, b.mean_rgb);
+  EXPECT_EQ(a.observed_area_m2, b.observed_area_m2);
+  EXPECT_EQ(a.area_m2, b.area_m2);
+  EXPECT_EQ(a.bounds.min, b.bounds.min);
+  EXPECT_EQ(a.bounds.max, b.bounds.max);
+  EXPECT_EQ(a.basis, b.basis);
+  EXPECT_EQ(a.footprint, b.footprint);
+  EXPECT_EQ(a.cells, b.cells);
+  EXPECT_EQ(a.observations, b.observations);
+}
+
+TEST(MapCodecTest, SurfaceRoundTripsExactlyInEveryVersion) {
+  for (const map::Surface& s : {awkward_surface(), rounded(awkward_surface())})
+    for (int version = map_codec::kOldestVersion; version <= map_codec::kCurrentVersion;
+         ++version) {
+      SCOPED_TRACE(version);
+      const auto blob = map_codec::encode_surface(s, version);
+      expect_identical(map_codec::decode_surface(s.id, blob.data(), blob.size(), "test", version),
+                       s);
+    }
+}
+
+/// At storage precision the plane, areas, bounds and basis (22 reals) go as floats: 88 bytes
+/// fewer before deflate, which cannot shorten irregular IEEE mantissas.
+TEST(MapCodecTest, SurfaceAtStoragePrecisionTakesTheShortForm) {
+  const auto full = map_codec::encode_surface(awkward_surface());
+  const auto compact = map_codec::encode_surface(rounded(awkward_surface()));
+  EXPECT_LT(compact.size() + 60, full.size()) << compact.size() << " vs " << full.size();
+  const auto v5 = map_codec::encode_surface(rounded(awkward_surface()), 5);
+  // Version 5 wrote those floats as doubles: their zero low mantissa bytes deflate, but not to
+  // nothing.
+  EXPECT_LT(compact.size(), v5.size());
+}
+
+TEST(MapCodecTest, PlaneRoundTripsExactlyAndShortWhenFloat) {
+  const Plane3 awkward{Eigen::Vector3d(0.0, 0.6, 0.8), -1.0 / 3.0};  // 0.6, 0.8, 1/3: no floats
+  for (const Plane3& p : {awkward, map::to_float_precision(awkward)})
+    for (int version : {5, 6}) {
+      const auto blob = map_codec::encode_plane(p, version);
+      const Plane3 back = map_codec::decode_plane(blob.data(), blob.size(), "test", version);
+      EXPECT_EQ(back.normal, p.normal);
+      EXPECT_EQ(back.offset, p.offset);
+    }
+  EXPECT_EQ(map_codec::encode_plane(awkward).size(), 1u + 4 * sizeof(double));
+  EXPECT_EQ(map_codec::encode_plane(map::to_float_precision(awkward)).size(),
+            1u + 4 * sizeof(float));
+}
+
+TEST(MapCodecTest, MillimetreVerticesTakeVarintsOthersStayRaw) {
+  // A 3 m × 2 m cell 250 m away, snapped to the millimetre grid: first vertex 3 × 3 varint
+  // bytes (±250 000 mm), then differences of ≤ 3 000 mm (2 bytes each).
+  std::vector<Eigen::Vector3f> cell{{250.123f, -12.5f, 1.7f},
+                                    {253.123f, -12.5f, 1.7f},
+                                    {253.123f, -12.5f, 3.7f},
+                                    {250.123f, -12.5f, 3.7f}};
+  map::snap_to_mm(cell);
+  const auto blob = map_codec::encode_vertices(cell);
+  EXPECT_EQ(blob[0], 1);
+  EXPECT_LT(blob.size(), 1 + 9 + 3 * 6 + 1);
+  EXPECT_EQ(map_codec::decode_vertices(blob.data(), blob.size(), "test"), cell);
+
+  // Off the grid, negative zero, beyond ±10⁹ m or NaN: raw floats, bit for bit.
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  for (const Eigen::Vector3f odd : {Eigen::Vector3f(0.1234567f, 1, 2), Eigen::Vector3f(-0.0f, 1, 2),
+                                    Eigen::Vector3f(2e9f, 1, 2), Eigen::Vector3f(nan, 1, 2)}) {
+    std::vector<Eigen::Vector3f> with_odd = cell;
+    with_odd.push_back(odd);
+    const auto raw = map_codec::encode_vertices(with_odd);
+    EXPECT_EQ(raw[0], 0);
+    EXPECT_EQ(raw.size(), 1 + with_odd.size() * sizeof(Eigen::Vector3f));
+    const auto back = map_codec::decode_vertices(raw.data(), raw.size(), "test");
+    ASSERT_EQ(back.size(), with_odd.size());
+    EXPECT_EQ(std::memcmp(back.data(), with_odd.data(), back.size() * sizeof(Eigen::Vector3f)), 0);
+  }
+  // Version 5 wrote raw floats with no tag.
+  const auto v5 = map_codec::encode_vertices(cell, 5);
+  EXPECT_EQ(v5.size(), cell.size() * sizeof(Eigen::Vector3f));
+  EXPECT_EQ(map_codec::decode_vertices(v5.data(), v5.size(), "test", 5), cell);
+}
+
+TEST(MapCodecTest, SnapToMmIsTheGridTheCodecReads) {
+  EXPECT_EQ(map::snap_to_mm(1.23449f), 1.234f);
+  EXPECT_EQ(map::snap_to_mm(-7.0006f), -7.001f);
+  EXPECT_EQ(map::snap_to_mm(3e9f), 3e9f);  // beyond ±10⁹ m: unchanged
+  EXPECT_EQ(map::to_float_precision(0.1), static_cast<double>(0.1f));
+}
+
+TEST(MapCodecTest, CorruptBlobsAreNamedNotMisread) {
+  std::vector<Eigen::Vector3f> cell{{1.0f, 2.0f, 3.0f}, {1.5f, 2.0f, 3.0f}, {1.5f, 2.5f, 3.0f}};
+  auto blob = map_codec::encode_vertices(cell);
+  ASSERT_EQ(blob[0], 1);
+  auto bad_tag = blob;
+  bad_tag[0] = 2;
+  EXPECT_CONTAINS(storage_error_of([&] {
+                    (void)map_codec::decode_vertices(bad_tag.data(), bad_tag.size(),
+                                                     "cell 4 vertices_m");
+                  }),
+                  "cell 4 vertices_m: vertex encoding tag 2");
+  auto cut = blob;
+  cut.back() |= 0x80;  // the last varint now claims a byte that is not there
+  EXPECT_CONTAINS(storage_error_of([&] {
+                    (void)map_codec::decode_vertices(cut.data(), cut.size(), "cell 4 vertices_m");
+                  }),
+                  "truncated");
+  auto plane = map_codec::encode_plane(Plane3{});
+  plane[0] = 9;
+  EXPECT_CONTAINS(storage_error_of([&] {
+                    (void)map_codec::decode_plane(plane.data(), plane.size(), "cell 4 plane");
+                  }),
+                  "cell 4 plane: real group flag 9");
+  EXPECT_CONTAINS(storage_error_of([&] { (void)map_codec::encode_plane(Plane3{}, 7); }),
+                  "store version 7");
+}
+
+}  // namespace
+}  // namespace planecell::io
