@@ -1,4 +1,4 @@
-/// PLY export of planecells as triangle fans (see ply_export.hpp).
+/// PLY export of planecells as triangulated polygons (see ply_export.hpp).
 #include "io/ply_export.hpp"
 
 #include <algorithm>
@@ -8,6 +8,7 @@
 #include <fstream>
 
 #include "core/error.hpp"
+#include "mapping/map/triangulate.hpp"
 
 namespace planecell::io {
 namespace {
@@ -29,7 +30,8 @@ bool drawable(const map::MapCell&) { return true; }
 
 /// The body of write_planecells_ply for either cell type (vertices_m, mean_rgb).
 template <class Cell>
-std::size_t write_fans(const std::filesystem::path& path, const std::vector<Cell>& cells, bool binary) {
+std::size_t write_polygons(const std::filesystem::path& path, const std::vector<Cell>& cells,
+                           bool binary) {
   std::vector<ColouredVertex> vertices;
   std::vector<std::array<std::int32_t, 3>> faces;
   for (const Cell& cell : cells) {
@@ -38,15 +40,10 @@ std::size_t write_fans(const std::filesystem::path& path, const std::vector<Cell
     std::array<std::uint8_t, 3> rgb;
     for (int c = 0; c < 3; ++c)
       rgb[c] = static_cast<std::uint8_t>(std::clamp(std::round(cell.mean_rgb[c]), 0.0f, 255.0f));
-    Eigen::Vector3f centre = Eigen::Vector3f::Zero();
-    for (const auto& v : cell.vertices_m) centre += v;
-    centre /= static_cast<float>(n);
     const auto base = static_cast<std::int32_t>(vertices.size());
-    vertices.push_back({centre, rgb});
     for (const auto& v : cell.vertices_m) vertices.push_back({v, rgb});
-    for (std::size_t k = 0; k < n; ++k)
-      faces.push_back({base, base + 1 + static_cast<std::int32_t>(k),
-                       base + 1 + static_cast<std::int32_t>((k + 1) % n)});
+    for (const auto& [i, j, k] : map::triangulate_polygon(cell.vertices_m))
+      faces.push_back({base + i, base + j, base + k});
   }
 
   std::error_code ec;
@@ -54,7 +51,7 @@ std::size_t write_fans(const std::filesystem::path& path, const std::vector<Cell
   std::ofstream out(path, std::ios::binary | std::ios::trunc);
   if (!out) throw StorageError("PLY '" + path.string() + "': cannot open for writing");
   out << "ply\nformat " << (binary ? "binary_little_endian" : "ascii") << " 1.0\n"
-      << "comment planecell cells as triangle fans\n"
+      << "comment planecell cells as triangulated polygons\n"
       << "element vertex " << vertices.size() << "\n"
       << "property float x\nproperty float y\nproperty float z\n"
       << "property uchar red\nproperty uchar green\nproperty uchar blue\n"
@@ -84,12 +81,12 @@ std::size_t write_fans(const std::filesystem::path& path, const std::vector<Cell
 
 std::size_t write_planecells_ply(const std::filesystem::path& path,
                                  const std::vector<Planecell>& cells, bool binary) {
-  return write_fans(path, cells, binary);
+  return write_polygons(path, cells, binary);
 }
 
 std::size_t write_planecells_ply(const std::filesystem::path& path,
                                  const std::vector<map::MapCell>& cells, bool binary) {
-  return write_fans(path, cells, binary);
+  return write_polygons(path, cells, binary);
 }
 
 }  // namespace planecell::io

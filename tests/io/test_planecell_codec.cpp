@@ -477,18 +477,18 @@ TEST(PlanecellCodecErrors, MutatedGeometryWithAValidChecksumDecodesOrThrowsInput
   EXPECT_LT(decoded, 3000);
 }
 
-TEST(PlyExport, WritesFansThatMatchTheHeader) {
+TEST(PlyExport, WritesTrianglesThatMatchTheHeader) {
   test::ScratchDir dir;
   const auto cells = make_cells(10);
   int with_plane = 0;
   for (const auto& c : cells) with_plane += c.has_plane;
   const std::size_t triangles = write_planecells_ply(dir / "cells.ply", cells, false);
-  EXPECT_EQ(triangles, static_cast<std::size_t>(with_plane) * 5);
+  EXPECT_EQ(triangles, static_cast<std::size_t>(with_plane) * 3);  // pentagons: n − 2 each
   std::ifstream in(dir / "cells.ply");
   std::stringstream text;
   text << in.rdbuf();
   const std::string s = text.str();
-  EXPECT_NE(s.find("element vertex " + std::to_string(with_plane * 6)), std::string::npos);
+  EXPECT_NE(s.find("element vertex " + std::to_string(with_plane * 5)), std::string::npos);
   EXPECT_NE(s.find("element face " + std::to_string(triangles)), std::string::npos);
   const std::size_t binary_triangles = write_planecells_ply(dir / "cells_bin.ply", cells, true);
   EXPECT_EQ(binary_triangles, triangles);
@@ -498,7 +498,7 @@ TEST(PlyExport, WritesFansThatMatchTheHeader) {
   const auto header_end = bin_text.str().find("end_header\n") + 11;
   // Binary body: 15 bytes per vertex, 13 per face.
   EXPECT_EQ(std::filesystem::file_size(dir / "cells_bin.ply"),
-            header_end + with_plane * 6 * 15 + triangles * 13);
+            header_end + with_plane * 5 * 15 + triangles * 13);
   EXPECT_THROW(write_planecells_ply("/proc/no/such/dir/cells.ply", cells), StorageError);
 }
 

@@ -1,5 +1,6 @@
-/// `planecell export` end to end: a stored map of a floor and a wall cell as a PLY of triangle
-/// fans and as JSON outlines; a negative tolerance is refused before anything is written.
+/// `planecell export` end to end: a stored map of a floor and a wall cell as a PLY of
+/// triangulated polygons and as JSON outlines; a negative tolerance is refused before anything
+/// is written.
 #include <gtest/gtest.h>
 
 #include <fstream>
@@ -37,7 +38,7 @@ TEST_F(ExportCommandTest, WritesTriangleFansOfTheCells) {
   const fs::path ply = dir_ / "map.ply";
   std::string out;
   ASSERT_EQ(run_export("-o " + ply.string() + " --color surface", &out), 0) << out;
-  EXPECT_CONTAINS(out, "2 cells, 2 surfaces, 8 triangles");  // a fan of 4 per square
+  EXPECT_CONTAINS(out, "2 cells, 2 surfaces, 4 triangles");  // two per square
   std::ifstream in(ply, std::ios::binary);
   std::string magic;
   std::getline(in, magic);
