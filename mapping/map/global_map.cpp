@@ -9,6 +9,7 @@
 
 #include "core/error.hpp"
 #include "mapping/map/cell_union.hpp"
+#include "mapping/map/container_bytes.hpp"
 #include "mapping/map/coverage.hpp"
 
 namespace planecell::map {
@@ -63,12 +64,6 @@ LabelState state_of_surface(const Surface& surface) {
   s.observed_area_m2 = surface.observed_area_m2;
   s.cells = surface.observations;
   return s;
-}
-
-template <class Map>
-std::size_t hash_map_bytes(const Map& m) {
-  return m.bucket_count() * sizeof(void*) +
-         m.size() * (sizeof(typename Map::value_type) + sizeof(void*));
 }
 
 bool surfaces_equal(const Surface& a, const Surface& b) {
@@ -550,6 +545,8 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
   if (!report.removed_cells.empty())  // replaced, pruned or consolidated
     std::erase_if(report.relabelled_cells, [&](std::uint32_t id) { return !cells_.contains(id); });
   report.updated_surfaces.assign(touched.begin(), touched.end());
+  shrink_if_sparse(cells_);  // after replacements, pruning and consolidation
+  shrink_if_sparse(surfaces_);
   std::sort(report.relabelled_cells.begin(), report.relabelled_cells.end());
   report.relabelled_cells.erase(std::unique(report.relabelled_cells.begin(), report.relabelled_cells.end()),
                                 report.relabelled_cells.end());
@@ -779,6 +776,7 @@ void GlobalMap::consolidate(std::uint64_t frame_id, std::set<std::uint32_t>& tou
         report.added_cells.push_back(piece.id);
         cells_.emplace(piece.id, std::move(piece));
       }
+      shrink_if_sparse_vector(surface.cells);
       touched.insert(surface_id);
     }
   }

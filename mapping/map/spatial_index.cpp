@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "core/error.hpp"
+#include "mapping/map/container_bytes.hpp"
 
 namespace planecell::map {
 namespace {
@@ -15,11 +16,6 @@ std::uint64_t bucket_key(std::int64_t x, std::int64_t y, std::int64_t z) {
   return (static_cast<std::uint64_t>(x + kBias) & kMask) |
          ((static_cast<std::uint64_t>(y + kBias) & kMask) << 21) |
          ((static_cast<std::uint64_t>(z + kBias) & kMask) << 42);
-}
-
-template <class Map>
-std::size_t hash_map_bytes(const Map& m) {
-  return m.bucket_count() * sizeof(void*) + m.size() * (sizeof(typename Map::value_type) + sizeof(void*));
 }
 
 }  // namespace
@@ -59,9 +55,13 @@ void SpatialIndex::remove(std::uint32_t id, const Aabb& box) {
     auto it = buckets_.find(key);
     if (it == buckets_.end()) return;
     found = std::erase(it->second, id) > 0 || found;
-    if (it->second.empty()) buckets_.erase(it);
+    if (it->second.empty())
+      buckets_.erase(it);
+    else
+      shrink_if_sparse_vector(it->second);
   });
   if (found) --size_;
+  shrink_if_sparse(buckets_);
 }
 
 std::vector<std::uint32_t> SpatialIndex::candidates(const Aabb& box) const {
