@@ -44,10 +44,6 @@ void get_reals(Reader& r, std::span<double> values) {
 }
 
 template <int N>
-void put_reals(Writer& w, const Eigen::Matrix<double, N, 1>& v) {
-  put_reals(w, std::span<const double>(v.data(), N));
-}
-template <int N>
 void get_reals(Reader& r, Eigen::Matrix<double, N, 1>& v) {
   get_reals(r, std::span<double>(v.data(), N));
 }
@@ -63,61 +59,45 @@ std::int64_t unzigzag(std::uint64_t u) {
 std::optional<std::int64_t> whole_mm(float x) {
   if (!(std::abs(x) < 1e9f) || (x == 0.0f && std::signbit(x))) return std::nullopt;  // -0 stays raw
   const std::int64_t k = std::llround(static_cast<double>(x) * 1000.0);
-  if (static_cast<float>(static_cast<double>(k) / 1000.0) != x) return std::nullopt;
+  if (map::from_mm(k) != x) return std::nullopt;
   return k;
 }
 
-/// Versions 3–5: the raw surface encoding, doubles as they are.
-std::vector<std::uint8_t> encode_surface_raw_v5(const map::Surface& s) {
+/// The raw surface encoding of `version`: 3–5 doubles and u32 counts as they are; 6 reals as
+/// float groups where exact (put_reals), counts and ids as varints.
+std::vector<std::uint8_t> encode_surface_raw(const map::Surface& s, int version) {
+  const bool v6 = version >= 6;
   Writer w;
-  w.put_matrix(s.plane.normal);
-  w.put(s.plane.offset);
+  const auto reals = [&](std::initializer_list<double> values) {
+    if (v6) return put_reals(w, std::span<const double>(values.begin(), values.size()));
+    for (double x : values) w.put(x);
+  };
+  const auto count = [&](std::size_t n) {
+    v6 ? w.put_varint(n) : w.put(static_cast<std::uint32_t>(n));
+  };
+  reals({s.plane.normal.x(), s.plane.normal.y(), s.plane.normal.z(), s.plane.offset});
   w.put(s.moments.weight);
   w.put_matrix(s.moments.sum);
   w.put_matrix(s.moments.sum_outer);
   for (std::uint16_t h : s.histogram) w.put(h);
-  w.put(s.histogram_weight_m2);
-  w.put_matrix(s.mean_rgb);
-  w.put(s.observed_area_m2);
-  w.put(s.area_m2);
-  w.put_matrix(s.bounds.min);
-  w.put_matrix(s.bounds.max);
-  w.put_matrix(s.basis.origin);
-  w.put_matrix(s.basis.u);
-  w.put_matrix(s.basis.v);
-  w.put(s.observations);
-  w.put(static_cast<std::uint32_t>(s.cells.size()));
-  for (auto id : s.cells) w.put(id);
-  w.put(s.footprint.resolution_m());
-  w.put(static_cast<std::uint32_t>(s.footprint.tiles().size()));
-  for (const auto& tile : s.footprint.tiles()) {
-    w.put(tile.s), w.put(tile.t);
-    for (std::uint32_t row : tile.rows) w.put(row);
+  if (v6) {
+    reals({s.histogram_weight_m2, s.observed_area_m2, s.area_m2});
+    w.put_matrix(s.mean_rgb);
+  } else {  // version 5 kept the colour between the histogram weight and the areas
+    w.put(s.histogram_weight_m2);
+    w.put_matrix(s.mean_rgb);
+    w.put(s.observed_area_m2);
+    w.put(s.area_m2);
   }
-  return std::move(w.bytes);
-}
-
-/// Version 6: reals as float groups where exact, counts and ids as varints.
-std::vector<std::uint8_t> encode_surface_raw_v6(const map::Surface& s) {
-  Writer w;
-  put_reals(w,
-            std::array{s.plane.normal.x(), s.plane.normal.y(), s.plane.normal.z(), s.plane.offset});
-  w.put(s.moments.weight);
-  w.put_matrix(s.moments.sum);
-  w.put_matrix(s.moments.sum_outer);
-  for (std::uint16_t h : s.histogram) w.put(h);
-  put_reals(w, std::array{s.histogram_weight_m2, s.observed_area_m2, s.area_m2});
-  w.put_matrix(s.mean_rgb);
-  put_reals(w, std::array{s.bounds.min.x(), s.bounds.min.y(), s.bounds.min.z(), s.bounds.max.x(),
-                          s.bounds.max.y(), s.bounds.max.z()});
-  put_reals(w, s.basis.origin);
-  put_reals(w, std::array{s.basis.u.x(), s.basis.u.y(), s.basis.u.z(), s.basis.v.x(), s.basis.v.y(),
-                          s.basis.v.z()});
-  w.put_varint(s.observations);
-  w.put_varint(s.cells.size());
-  for (auto id : s.cells) w.put_varint(id);
+  reals({s.bounds.min.x(), s.bounds.min.y(), s.bounds.min.z(), s.bounds.max.x(), s.bounds.max.y(),
+         s.bounds.max.z()});
+  reals({s.basis.origin.x(), s.basis.origin.y(), s.basis.origin.z()});
+  reals({s.basis.u.x(), s.basis.u.y(), s.basis.u.z(), s.basis.v.x(), s.basis.v.y(), s.basis.v.z()});
+  count(s.observations);
+  count(s.cells.size());
+  for (auto id : s.cells) v6 ? w.put_varint(id) : w.put(id);
   w.put(s.footprint.resolution_m());
-  w.put_varint(s.footprint.tiles().size());
+  count(s.footprint.tiles().size());
   for (const auto& tile : s.footprint.tiles()) {
     w.put(tile.s), w.put(tile.t);
     for (std::uint32_t row : tile.rows) w.put(row);
@@ -222,8 +202,7 @@ constexpr std::uint32_t kMaxRawSurfaceBytes = 64u << 20;
 /// occupancy bits and the 64-bin histogram are mostly zeros and runs.
 std::vector<std::uint8_t> encode_surface(const map::Surface& s, int version) {
   check_version(version);
-  const std::vector<std::uint8_t> raw =
-      version >= 6 ? encode_surface_raw_v6(s) : encode_surface_raw_v5(s);
+  const std::vector<std::uint8_t> raw = encode_surface_raw(s, version);
   if (raw.size() > kMaxRawSurfaceBytes)
     throw StorageError("surface " + std::to_string(s.id) + ": encoding of " +
                        std::to_string(raw.size()) + " bytes exceeds the store's limit of " +
@@ -295,8 +274,8 @@ std::vector<std::uint8_t> encode_vertices(const std::vector<Eigen::Vector3f>& ve
                                           int version) {
   check_version(version);
   Writer w;
-  std::vector<std::int64_t> mm;
   if (version >= 6) {
+    std::vector<std::int64_t> mm;
     mm.reserve(3 * vertices.size());
     bool on_grid = true;
     for (const auto& v : vertices)
@@ -337,8 +316,7 @@ std::vector<Eigen::Vector3f> decode_vertices(const void* data, std::size_t size,
       Eigen::Vector3f v;
       for (int i = 0; i < 3; ++i) {
         previous[i] += static_cast<std::uint64_t>(unzigzag(r.get_varint()));
-        v(i) = static_cast<float>(static_cast<double>(static_cast<std::int64_t>(previous[i])) /
-                                  1000.0);
+        v(i) = map::from_mm(static_cast<std::int64_t>(previous[i]));
       }
       out.push_back(v);
     }

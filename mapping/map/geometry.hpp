@@ -1,11 +1,11 @@
 #pragma once
 /// Geometry of planar polygons in 3D for the global map: plane bases, areas, distances, bounds.
-/// (Boost.Geometry's 2D types stay in mapping/map/polygon2.hpp, out of this widely included
-/// header.)
-#include <Eigen/Core>
-#include <Eigen/Geometry>
+/// (Boost.Geometry's 2D types stay in mapping/map/polygon2.hpp, out of this widely included header.)
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <Eigen/Core>
+#include <Eigen/Geometry>
 #include <limits>
 #include <span>
 #include <vector>
@@ -63,8 +63,9 @@ PlaneBasis make_basis(const Plane3& plane, const Eigen::Vector3d& near_point);
 /// reals to the nearest float (relative error ≤ 2⁻²⁴ ≈ 6·10⁻⁸: 0.06 mm at 1 km, 10⁻⁷ rad) and
 /// vertex coordinates to a 1 mm grid (x ↦ float(round(1000 x) / 1000)), far below SGM's depth
 /// noise and the 10 cm footprint bits. Values beyond ±10⁹ m are left as they are.
-/// (The float goes through a volatile: GCC 12 at -O3 -mavx2 vectorises three of these
-/// conversions into a double→float→double pair it then drops as a no-op.)
+/// (The float goes through a volatile: built with GCC 12 at -O3 -mavx2 -mfma, one translation
+/// unit returned x unrounded from a plain double→float→double cast, not at -O2 or without AVX2;
+/// the store's codec test PlaneRoundTripsExactlyAndShortWhenFloat catches a regression.)
 inline double to_float_precision(double x) {
   volatile float rounded = static_cast<float>(x);
   return static_cast<double>(rounded);
@@ -81,10 +82,10 @@ inline Plane3 to_float_precision(const Plane3& p) {
 inline PlaneBasis to_float_precision(const PlaneBasis& b) {
   return {to_float_precision(b.origin), to_float_precision(b.u), to_float_precision(b.v)};
 }
+/// The coordinate k mm on the grid: float(k / 1000) m (io/map_codec decodes with it).
+inline float from_mm(std::int64_t k) { return static_cast<float>(static_cast<double>(k) / 1000.0); }
 inline float snap_to_mm(float x) {
-  if (!(std::abs(x) < 1e9f)) return x;
-  return static_cast<float>(static_cast<double>(std::llround(static_cast<double>(x) * 1000.0)) /
-                            1000.0);
+  return std::abs(x) < 1e9f ? from_mm(std::llround(static_cast<double>(x) * 1000.0)) : x;
 }
 inline void snap_to_mm(std::vector<Eigen::Vector3f>& vertices) {
   for (auto& v : vertices) v = v.unaryExpr([](float x) { return snap_to_mm(x); });

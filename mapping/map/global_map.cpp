@@ -66,17 +66,6 @@ LabelState state_of_surface(const Surface& surface) {
   return s;
 }
 
-bool surfaces_equal(const Surface& a, const Surface& b) {
-  if (!(a.id == b.id && a.plane.normal == b.plane.normal && a.plane.offset == b.plane.offset &&
-        a.moments == b.moments && a.histogram == b.histogram &&
-        a.histogram_weight_m2 == b.histogram_weight_m2 && a.mean_rgb == b.mean_rgb &&
-        a.observed_area_m2 == b.observed_area_m2 && a.area_m2 == b.area_m2 &&
-        a.bounds == b.bounds && a.basis == b.basis && a.cells == b.cells &&
-        a.observations == b.observations && a.footprint == b.footprint))
-    return false;
-  return true;
-}
-
 /// How much of a new cell the map already holds, and where.
 struct Coverage {
   double fraction = 0.0;             ///< share of the cell's grid points covered
@@ -190,6 +179,15 @@ GlobalMap::GlobalMap(const MapConfig& config)
       throw ConfigError("map.consolidate_max_distance_m: must be >= 0, got " +
                         std::to_string(config.consolidate_max_distance_m));
   }
+}
+
+bool same_surface(const Surface& a, const Surface& b) {
+  return a.id == b.id && a.plane.normal == b.plane.normal && a.plane.offset == b.plane.offset &&
+         a.moments == b.moments && a.histogram == b.histogram &&
+         a.histogram_weight_m2 == b.histogram_weight_m2 && a.mean_rgb == b.mean_rgb &&
+         a.observed_area_m2 == b.observed_area_m2 && a.area_m2 == b.area_m2 &&
+         a.bounds == b.bounds && a.basis == b.basis && a.cells == b.cells &&
+         a.observations == b.observations && a.footprint == b.footprint;
 }
 
 std::vector<std::uint32_t> GlobalMap::cells_near(const Aabb& box) const { return query_cells(box); }
@@ -828,7 +826,7 @@ bool GlobalMap::same_content(const GlobalMap& other) const {
   }
   for (const auto& [id, surface] : surfaces_) {
     const Surface* o = other.surface(id);
-    if (!o || !surfaces_equal(surface, *o)) return false;
+    if (!o || !same_surface(surface, *o)) return false;
   }
   return true;
 }

@@ -50,6 +50,9 @@ struct Surface {
   std::uint32_t observations = 0;              ///< integrated cells, fused ones included
 };
 
+/// True when every field of `a` and `b` is equal (GlobalMap::same_content compares surfaces so).
+bool same_surface(const Surface& a, const Surface& b);
+
 /// Two surfaces became one (an event for the map consumers).
 struct SurfaceMerge {
   std::uint64_t frame_id = 0;
