@@ -63,9 +63,72 @@ std::optional<std::int64_t> whole_mm(float x) {
   return k;
 }
 
-/// The raw surface encoding of `version`: 3–5 doubles and u32 counts as they are; 6 reals as
-/// float groups where exact (put_reals), counts and ids as varints.
-std::vector<std::uint8_t> encode_surface_raw(const map::Surface& s, int version) {
+/// A footprint: resolution (double), tile count (u32, or a varint when `varint_count`), each tile
+/// as s, t (i32) and its 32 rows (u32).
+void put_footprint(Writer& w, const map::Footprint& footprint, bool varint_count) {
+  w.put(footprint.resolution_m());
+  varint_count ? w.put_varint(footprint.tiles().size())
+               : w.put(static_cast<std::uint32_t>(footprint.tiles().size()));
+  for (const auto& tile : footprint.tiles()) {
+    w.put(tile.s), w.put(tile.t);
+    for (std::uint32_t row : tile.rows) w.put(row);
+  }
+}
+
+map::Footprint get_footprint(Reader& r, std::size_t blob_size, bool varint_count) {
+  const auto resolution_m = r.get<double>();
+  if (!(resolution_m > 0.0 && resolution_m <= 10.0))
+    throw StorageError(r.what() + " has an invalid footprint resolution");
+  std::size_t tile_count = 0;
+  if (varint_count) {
+    tile_count = r.get_varint();
+    if (tile_count > blob_size / sizeof(map::FootprintTile))
+      throw StorageError(r.what() + ": tile count " + std::to_string(tile_count) +
+                         " exceeds the blob");
+  } else {
+    tile_count = r.count(sizeof(map::FootprintTile));
+  }
+  std::vector<map::FootprintTile> tiles(tile_count);
+  for (auto& tile : tiles) {
+    tile.s = r.get<std::int32_t>(), tile.t = r.get<std::int32_t>();
+    for (std::uint32_t& row : tile.rows) row = r.get<std::uint32_t>();
+  }
+  try {
+    return map::Footprint::from_tiles(resolution_m, std::move(tiles));
+  } catch (const StorageError& e) {
+    throw StorageError(r.what() + ": " + e.what());
+  }
+}
+
+/// A basis as two real groups: origin, then u and v.
+void put_basis(Writer& w, const map::PlaneBasis& b) {
+  put_reals(w, std::array{b.origin.x(), b.origin.y(), b.origin.z()});
+  put_reals(w, std::array{b.u.x(), b.u.y(), b.u.z(), b.v.x(), b.v.y(), b.v.z()});
+}
+
+void get_basis(Reader& r, map::PlaneBasis& b) {
+  get_reals(r, b.origin);
+  std::array<double, 6> uv{};
+  get_reals(r, uv);
+  b.u = {uv[0], uv[1], uv[2]};
+  b.v = {uv[3], uv[4], uv[5]};
+}
+
+/// A count or id read as a varint, refused beyond 2³² − 1.
+std::uint32_t get_u32_varint(Reader& r, const char* what) {
+  const auto v = r.get_varint();
+  if (v > UINT32_MAX) throw StorageError(r.what() + ": " + what + " beyond 2^32");
+  return static_cast<std::uint32_t>(v);
+}
+
+/// The raw surface encoding of `version` ≤ 6 (a live surface: these versions had no dormant
+/// ones): 3–5 doubles and u32 counts as they are; 6 reals as float groups where exact
+/// (put_reals), counts and ids as varints.
+std::vector<std::uint8_t> encode_surface_legacy(const map::Surface& s, int version) {
+  if (!s.detail)
+    throw StorageError("surface " + std::to_string(s.id) + " is dormant: store version " +
+                       std::to_string(version) + " cannot hold it (7 can)");
+  const map::SurfaceDetail& d = *s.detail;
   const bool v6 = version >= 6;
   Writer w;
   const auto reals = [&](std::initializer_list<double> values) {
@@ -76,9 +139,9 @@ std::vector<std::uint8_t> encode_surface_raw(const map::Surface& s, int version)
     v6 ? w.put_varint(n) : w.put(static_cast<std::uint32_t>(n));
   };
   reals({s.plane.normal.x(), s.plane.normal.y(), s.plane.normal.z(), s.plane.offset});
-  w.put(s.moments.weight);
-  w.put_matrix(s.moments.sum);
-  w.put_matrix(s.moments.sum_outer);
+  w.put(s.information);
+  w.put_matrix(d.moment_sum);
+  w.put_matrix(d.moment_outer);
   for (std::uint16_t h : s.histogram) w.put(h);
   if (v6) {
     reals({s.histogram_weight_m2, s.observed_area_m2, s.area_m2});
@@ -91,25 +154,23 @@ std::vector<std::uint8_t> encode_surface_raw(const map::Surface& s, int version)
   }
   reals({s.bounds.min.x(), s.bounds.min.y(), s.bounds.min.z(), s.bounds.max.x(), s.bounds.max.y(),
          s.bounds.max.z()});
-  reals({s.basis.origin.x(), s.basis.origin.y(), s.basis.origin.z()});
-  reals({s.basis.u.x(), s.basis.u.y(), s.basis.u.z(), s.basis.v.x(), s.basis.v.y(), s.basis.v.z()});
+  reals({d.basis.origin.x(), d.basis.origin.y(), d.basis.origin.z()});
+  reals({d.basis.u.x(), d.basis.u.y(), d.basis.u.z(), d.basis.v.x(), d.basis.v.y(), d.basis.v.z()});
   count(s.observations);
   count(s.cells.size());
   for (auto id : s.cells) v6 ? w.put_varint(id) : w.put(id);
-  w.put(s.footprint.resolution_m());
-  count(s.footprint.tiles().size());
-  for (const auto& tile : s.footprint.tiles()) {
-    w.put(tile.s), w.put(tile.t);
-    for (std::uint32_t row : tile.rows) w.put(row);
-  }
+  put_footprint(w, d.footprint, v6);
   return std::move(w.bytes);
 }
 
-map::Surface decode_surface_raw(std::uint32_t id, const void* data, std::size_t size,
-                                const std::string& where, int version) {
+/// Decodes encode_surface_legacy's bytes into a live surface (last_observed_frame 0: the caller
+/// sets it).
+map::Surface decode_surface_legacy(std::uint32_t id, const void* data, std::size_t size,
+                                   const std::string& where, int version) {
   Reader r(data, size, where + ": surface " + std::to_string(id));
   map::Surface s;
   s.id = id;
+  map::SurfaceDetail& d = s.detail.emplace(map::SurfaceDetail{});
   const bool v6 = version >= 6;
   if (v6) {
     std::array<double, 4> plane{};
@@ -120,9 +181,9 @@ map::Surface decode_surface_raw(std::uint32_t id, const void* data, std::size_t 
     r.get_matrix(s.plane.normal);
     s.plane.offset = r.get<double>();
   }
-  s.moments.weight = r.get<double>();
-  r.get_matrix(s.moments.sum);
-  r.get_matrix(s.moments.sum_outer);
+  s.information = r.get<double>();
+  r.get_matrix(d.moment_sum);
+  r.get_matrix(d.moment_outer);
   for (std::uint16_t& h : s.histogram) h = r.get<std::uint16_t>();
   if (v6) {
     std::array<double, 3> areas{};
@@ -133,23 +194,13 @@ map::Surface decode_surface_raw(std::uint32_t id, const void* data, std::size_t 
     get_reals(r, bounds);
     s.bounds.min = {bounds[0], bounds[1], bounds[2]};
     s.bounds.max = {bounds[3], bounds[4], bounds[5]};
-    get_reals(r, s.basis.origin);
-    std::array<double, 6> uv{};
-    get_reals(r, uv);
-    s.basis.u = {uv[0], uv[1], uv[2]};
-    s.basis.v = {uv[3], uv[4], uv[5]};
-    const auto observations = r.get_varint();
-    if (observations > UINT32_MAX) throw StorageError(r.what() + ": observation count beyond 2^32");
-    s.observations = static_cast<std::uint32_t>(observations);
+    get_basis(r, d.basis);
+    s.observations = get_u32_varint(r, "observation count");
     const auto cells = r.get_varint();
     if (cells > size)
       throw StorageError(r.what() + ": cell count " + std::to_string(cells) + " exceeds the blob");
     s.cells.resize(cells);
-    for (auto& c : s.cells) {
-      const auto cell = r.get_varint();
-      if (cell > UINT32_MAX) throw StorageError(r.what() + ": cell id beyond 2^32");
-      c = static_cast<std::uint32_t>(cell);
-    }
+    for (auto& c : s.cells) c = get_u32_varint(r, "cell id");
   } else {
     s.histogram_weight_m2 = r.get<double>();
     r.get_matrix(s.mean_rgb);
@@ -157,38 +208,113 @@ map::Surface decode_surface_raw(std::uint32_t id, const void* data, std::size_t 
     s.area_m2 = r.get<double>();
     r.get_matrix(s.bounds.min);
     r.get_matrix(s.bounds.max);
-    r.get_matrix(s.basis.origin);
-    r.get_matrix(s.basis.u);
-    r.get_matrix(s.basis.v);
+    r.get_matrix(d.basis.origin);
+    r.get_matrix(d.basis.u);
+    r.get_matrix(d.basis.v);
     s.observations = r.get<std::uint32_t>();
     s.cells.resize(r.count(sizeof(std::uint32_t)));
     for (auto& c : s.cells) c = r.get<std::uint32_t>();
   }
-  const auto resolution_m = r.get<double>();
-  if (!(resolution_m > 0.0 && resolution_m <= 10.0))
-    throw StorageError(where + ": surface " + std::to_string(id) +
-                       " has an invalid footprint resolution");
-  std::size_t tile_count = 0;
-  if (v6) {
-    tile_count = r.get_varint();
-    if (tile_count > size / sizeof(map::FootprintTile))
-      throw StorageError(r.what() + ": tile count " + std::to_string(tile_count) +
-                         " exceeds the blob");
-  } else {
-    tile_count = r.count(sizeof(map::FootprintTile));
+  d.footprint = get_footprint(r, size, v6);
+  r.expect_end();
+  return s;
+}
+
+/// Version 7's raw surface encoding. Reals as in 6 (float groups where exact); the information Σw
+/// as a double; the histogram as a 64-bit mask of its non-zero bins and those bins' u16 values;
+/// counts, the last observed frame and the cell ids as varints (the ids as zigzag differences
+/// from the previous one); then a flag byte: 1 and the detail (moment sums as 12 doubles, basis,
+/// footprint) for a live surface, 0 for a dormant one.
+std::vector<std::uint8_t> encode_surface_v7(const map::Surface& s) {
+  static_assert(std::tuple_size_v<map::CompactHistogram> == 64, "the mask holds one bit per bin");
+  Writer w;
+  put_reals(w, std::array{s.plane.normal.x(), s.plane.normal.y(), s.plane.normal.z(), s.plane.offset});
+  w.put(s.information);
+  std::uint64_t mask = 0;
+  for (std::size_t q = 0; q < s.histogram.size(); ++q)
+    if (s.histogram[q] != 0) mask |= std::uint64_t{1} << q;
+  w.put(mask);
+  for (std::uint16_t h : s.histogram)
+    if (h != 0) w.put(h);
+  put_reals(w, std::array{s.histogram_weight_m2, s.observed_area_m2, s.area_m2});
+  w.put_matrix(s.mean_rgb);
+  put_reals(w, std::array{s.bounds.min.x(), s.bounds.min.y(), s.bounds.min.z(), s.bounds.max.x(),
+                          s.bounds.max.y(), s.bounds.max.z()});
+  w.put_varint(s.observations);
+  w.put_varint(s.last_observed_frame);
+  w.put_varint(s.cells.size());
+  std::int64_t previous = 0;
+  for (std::uint32_t id : s.cells) {
+    w.put_varint(zigzag(std::int64_t{id} - previous));
+    previous = id;
   }
-  std::vector<map::FootprintTile> tiles(tile_count);
-  for (auto& tile : tiles) {
-    tile.s = r.get<std::int32_t>(), tile.t = r.get<std::int32_t>();
-    for (std::uint32_t& row : tile.rows) row = r.get<std::uint32_t>();
+  w.put(static_cast<std::uint8_t>(s.detail ? 1 : 0));
+  if (s.detail) {
+    const map::SurfaceDetail& d = *s.detail;
+    w.put_matrix(d.moment_sum);
+    w.put_matrix(d.moment_outer);
+    put_basis(w, d.basis);
+    put_footprint(w, d.footprint, true);
   }
-  try {
-    s.footprint = map::Footprint::from_tiles(resolution_m, std::move(tiles));
-  } catch (const StorageError& e) {
-    throw StorageError(where + ": surface " + std::to_string(id) + ": " + e.what());
+  return std::move(w.bytes);
+}
+
+map::Surface decode_surface_v7(std::uint32_t id, const void* data, std::size_t size,
+                               const std::string& where) {
+  Reader r(data, size, where + ": surface " + std::to_string(id));
+  map::Surface s;
+  s.id = id;
+  std::array<double, 4> plane{};
+  get_reals(r, plane);
+  s.plane.normal = {plane[0], plane[1], plane[2]};
+  s.plane.offset = plane[3];
+  s.information = r.get<double>();
+  const auto mask = r.get<std::uint64_t>();
+  for (std::size_t q = 0; q < s.histogram.size(); ++q)
+    s.histogram[q] = (mask >> q) & 1 ? r.get<std::uint16_t>() : std::uint16_t{0};
+  std::array<double, 3> areas{};
+  get_reals(r, areas);
+  s.histogram_weight_m2 = areas[0], s.observed_area_m2 = areas[1], s.area_m2 = areas[2];
+  r.get_matrix(s.mean_rgb);
+  std::array<double, 6> bounds{};
+  get_reals(r, bounds);
+  s.bounds.min = {bounds[0], bounds[1], bounds[2]};
+  s.bounds.max = {bounds[3], bounds[4], bounds[5]};
+  s.observations = get_u32_varint(r, "observation count");
+  s.last_observed_frame = r.get_varint();
+  const auto cells = r.get_varint();
+  if (cells > size)
+    throw StorageError(r.what() + ": cell count " + std::to_string(cells) + " exceeds the blob");
+  s.cells.resize(cells);
+  std::uint64_t previous = 0;  // unsigned: a corrupt difference wraps, no overflow
+  for (auto& c : s.cells) {
+    previous += static_cast<std::uint64_t>(unzigzag(r.get_varint()));
+    if (previous > UINT32_MAX) throw StorageError(r.what() + ": cell id beyond 2^32");
+    c = static_cast<std::uint32_t>(previous);
+  }
+  const auto has_detail = r.get<std::uint8_t>();
+  if (has_detail > 1)
+    throw StorageError(r.what() + ": detail flag " + std::to_string(has_detail) +
+                       " is neither 0 nor 1");
+  if (has_detail == 1) {
+    map::SurfaceDetail& d = s.detail.emplace(map::SurfaceDetail{});
+    r.get_matrix(d.moment_sum);
+    r.get_matrix(d.moment_outer);
+    get_basis(r, d.basis);
+    d.footprint = get_footprint(r, size, true);
   }
   r.expect_end();
   return s;
+}
+
+std::vector<std::uint8_t> encode_surface_raw(const map::Surface& s, int version) {
+  return version >= 7 ? encode_surface_v7(s) : encode_surface_legacy(s, version);
+}
+
+map::Surface decode_surface_raw(std::uint32_t id, const void* data, std::size_t size,
+                                const std::string& where, int version) {
+  return version >= 7 ? decode_surface_v7(id, data, size, where)
+                      : decode_surface_legacy(id, data, size, where, version);
 }
 
 /// Largest raw surface encoding a stored blob may claim (a corrupt size is refused, not allocated):

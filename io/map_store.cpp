@@ -26,13 +26,13 @@ using blob::Writer;
 constexpr int kBusyTimeoutMs = 5000;
 
 constexpr const char* kFormat = "planecell-map";
-/// 6: reals stored as floats and vertices as millimetre varints where exact (io/map_codec).
-constexpr const char* kVersion = "6";
-static_assert(map_codec::kCurrentVersion == 6, "kVersion names the codec's current version");
-/// Versions upgraded in place: 5 (surface blobs deflated, reals and vertices as raw IEEE bytes),
-/// 4 (as 5 with raw surface blobs and an unused cells_by_surface index) and 3 (as 4 without
-/// frames.input_pose).
-constexpr std::array<const char*, 3> kMigratableVersions = {"3", "4", "5"};
+/// 7: dormant surfaces without their detail, sparse histograms (io/map_codec).
+constexpr const char* kVersion = "7";
+static_assert(map_codec::kCurrentVersion == 7, "kVersion names the codec's current version");
+/// Versions upgraded in place: 6 (every surface live, dense histograms), 5 (as 6 with reals and
+/// vertices as raw IEEE bytes), 4 (as 5 with raw surface blobs and an unused cells_by_surface
+/// index) and 3 (as 4 without frames.input_pose).
+constexpr std::array<const char*, 4> kMigratableVersions = {"3", "4", "5", "6"};
 
 constexpr const char* kSchema = R"sql(
 CREATE TABLE meta(key TEXT PRIMARY KEY, value TEXT NOT NULL);
@@ -186,7 +186,7 @@ MapStore::MapStore(const std::filesystem::path& path) : path_(path) {
     }
     exec("PRAGMA journal_mode=WAL");
     exec("PRAGMA synchronous=NORMAL");
-    if (migrate) {  // version 3, 4 or 5 → 6 in one transaction
+    if (migrate) {  // version 3 to 6 → 7 in one transaction
       const int from = std::stoi(from_version);
       exec("BEGIN IMMEDIATE");
       try {
@@ -202,20 +202,28 @@ MapStore::MapStore(const std::filesystem::path& path) : path_(path) {
           return ids;
         };
         int rc = SQLITE_OK;
+        // Surfaces written before version 7 do not say when they were last observed: the last
+        // frame stands in, so none goes dormant before dormant_after_frames more frames.
+        std::uint64_t last_frame = 0;
+        {
+          Statement last(db_, "SELECT max(frame_id) FROM frames", *this);
+          if (last.step(rc)) last_frame = static_cast<std::uint64_t>(last.integer(0));  // NULL: 0
+        }
         {
           Statement read(db_, "SELECT data FROM surfaces WHERE id = ?", *this);
           Statement write(db_, "UPDATE surfaces SET data = ? WHERE id = ?", *this);
           for (const std::uint32_t id : ids_of("SELECT id FROM surfaces", "surfaces")) {
             read.bind(1, std::int64_t{id});
             if (!read.step(rc)) fail("cannot read surface " + std::to_string(id));
-            const map::Surface surface =
+            map::Surface surface =
                 map_codec::decode_surface(id, read.blob(0), read.blob_size(0), path.string(), from);
+            surface.last_observed_frame = last_frame;
             read.reset();
             write.bind(1, map_codec::encode_surface(surface)).bind(2, std::int64_t{id});
             run(write, [&] { fail("cannot rewrite surface " + std::to_string(id)); });
           }
         }
-        {
+        if (from < 6) {  // version 6 cells are as in 7
           Statement read(db_, "SELECT plane, vertices_m FROM cells WHERE id = ?", *this);
           Statement write(db_, "UPDATE cells SET plane = ?, vertices_m = ? WHERE id = ?", *this);
           for (const std::uint32_t id : ids_of("SELECT id FROM cells", "cells")) {
@@ -240,8 +248,9 @@ MapStore::MapStore(const std::filesystem::path& path) : path_(path) {
         sqlite3_exec(db_, "ROLLBACK", nullptr, nullptr, nullptr);
         throw;
       }
-      spdlog::info("map store '{}': upgraded from version {} to {} (compact reals and vertices{})",
-                   path.string(), from_version, kVersion,
+      spdlog::info("map store '{}': upgraded from version {} to {} ({}sparse histograms, dormant "
+                   "surfaces{})",
+                   path.string(), from_version, kVersion, from < 6 ? "compact reals and vertices, " : "",
                    from == 3 ? "; frames keep their input poses from now on" : "");
     }
     if (!exists) {
@@ -365,12 +374,14 @@ void MapStore::commit_frame(std::uint64_t frame_id, const Pose& T_world_cam,
         run(remove, failed);
       }
       Statement upsert(db_, "INSERT OR REPLACE INTO surfaces VALUES (?, ?)", *this);
-      for (std::uint32_t id : report.updated_surfaces) {
-        const map::Surface* s = map.surface(id);
-        if (!s) fail(frame + ": updated surface " + std::to_string(id) + " is not in the map");
-        upsert.bind(1, std::int64_t{id}).bind(2, map_codec::encode_surface(*s));
-        run(upsert, failed);
-      }
+      // Surfaces gone dormant changed only in RAM's eyes (their detail dropped): rewritten too.
+      for (const auto* ids : {&report.updated_surfaces, &report.dormant_surfaces})
+        for (std::uint32_t id : *ids) {
+          const map::Surface* s = map.surface(id);
+          if (!s) fail(frame + ": updated surface " + std::to_string(id) + " is not in the map");
+          upsert.bind(1, std::int64_t{id}).bind(2, map_codec::encode_surface(*s));
+          run(upsert, failed);
+        }
       Statement merge(db_, "INSERT INTO merges(frame_id, absorbed, into_surface) VALUES (?, ?, ?)", *this);
       for (const auto& m : report.surface_merges) {
         merge.bind(1, static_cast<std::int64_t>(m.frame_id)).bind(2, std::int64_t{m.absorbed})

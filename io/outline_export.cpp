@@ -32,7 +32,7 @@ OutlineExport write_outlines_json(const std::filesystem::path& path, const map::
   nlohmann::json surfaces = nlohmann::json::array();
   for (const std::uint32_t id : ids) {
     const map::Surface& surface = *map.surface(id);
-    const std::vector<map::OutlineRing> outline = map::surface_outline(surface, tolerance_m);
+    const std::vector<map::OutlineRing> outline = map::surface_outline(surface.plane, map.surface_detail(id), tolerance_m);
     if (outline.empty()) continue;
     nlohmann::json rings = nlohmann::json::array();
     for (const auto& ring : outline) {

@@ -119,6 +119,14 @@ struct MapConfig {
   double consolidate_tolerance_m = 0.10;
   double consolidate_max_hole_m2 = 0.5;
   double consolidate_max_distance_m = 0.10;
+  /// A surface no observation has reached for this many frames (the camera has left it behind)
+  /// goes dormant: it keeps its descriptor (plane, information, histogram, colour, areas, bounds,
+  /// cells) and drops the detail that only merging and fusing need (the moments' point sums, the
+  /// footprint and its basis), about two thirds of a surface's RAM and store bytes. New cells
+  /// coming near it again (a loop) wake it: the detail is rebuilt from its stored cells, which
+  /// consolidation has made cover its footprint to within a bit. Must be ≥
+  /// consolidate_after_frames (a surface is consolidated before it goes dormant). 0 = never.
+  int dormant_after_frames = 30;
   // --- queries --------------------------------------------------------------------------------
   double up_x = 0.0;  ///< world "up" (KITTI camera-style world: y down, so up = (0, −1, 0))
   double up_y = -1.0;
@@ -157,6 +165,7 @@ void visit_fields(MapConfig& c, Visitor&& visit) {
   visit("consolidate_tolerance_m", c.consolidate_tolerance_m);
   visit("consolidate_max_hole_m2", c.consolidate_max_hole_m2);
   visit("consolidate_max_distance_m", c.consolidate_max_distance_m);
+  visit("dormant_after_frames", c.dormant_after_frames);
   visit("up_x", c.up_x);
   visit("up_y", c.up_y);
   visit("up_z", c.up_z);

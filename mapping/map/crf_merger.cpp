@@ -174,7 +174,11 @@ double PlaneMoments::rms_distance_m(const Plane3& plane) const {
 }
 
 double effective_sigma_m(const PlaneMoments& moments, double observed_area_m2) {
-  return moments.weight > 0.0 ? std::sqrt(observed_area_m2 / moments.weight) : 0.0;
+  return effective_sigma_m(moments.weight, observed_area_m2);
+}
+
+double effective_sigma_m(double information, double observed_area_m2) {
+  return information > 0.0 ? std::sqrt(observed_area_m2 / information) : 0.0;
 }
 
 double LabelState::sigma_m() const { return effective_sigma_m(moments, observed_area_m2); }

@@ -81,6 +81,8 @@ struct PlaneMoments {
 ///   σ_eff = √(Σ area_i / Σ (area_i / σ_i²)) (m), the area-weighted harmonic mean of the σ², 0 when
 /// there is no weight.
 double effective_sigma_m(const PlaneMoments& moments, double observed_area_m2);
+/// The same from the information Σ (area_i / σ_i²) alone: √(observed_area_m2 / information).
+double effective_sigma_m(double information, double observed_area_m2);
 
 /// State of one label during merging (a surface of the map or a fresh label of a new cell).
 struct LabelState {

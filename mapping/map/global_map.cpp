@@ -54,10 +54,68 @@ ColourHistogram expand(const CompactHistogram& histogram) {
 
 namespace {
 
+/// A surface's footprint basis on `plane` around `centre`: its origin half a footprint tile back
+/// along u and v, so that the first cell lands mid-tile, not on the corner of four tiles; at
+/// storage precision (geometry.hpp).
+PlaneBasis tile_centred_basis(const Plane3& plane, const Eigen::Vector3d& centre, double resolution_m) {
+  PlaneBasis basis = make_basis(plane, centre);
+  const double half_tile_m = 0.5 * FootprintTile::kSize * resolution_m;
+  basis.origin -= half_tile_m * (basis.u + basis.v);
+  return to_float_precision(basis);
+}
+
+}  // namespace
+
+PlaneMoments moments_of(const Surface& surface) {
+  PlaneMoments m;
+  m.weight = surface.information;
+  if (surface.detail) {
+    m.sum = surface.detail->moment_sum;
+    m.sum_outer = surface.detail->moment_outer;
+  }
+  return m;
+}
+
+void set_moments(Surface& surface, const PlaneMoments& moments) {
+  if (!surface.detail)
+    throw std::logic_error("set_moments: surface " + std::to_string(surface.id) + " is dormant");
+  surface.information = moments.weight;
+  surface.detail->moment_sum = moments.sum;
+  surface.detail->moment_outer = moments.sum_outer;
+}
+
+SurfaceDetail surface_detail_from_cells(const Plane3& plane, double information,
+                                        std::span<const MapCell* const> cells,
+                                        double resolution_m) {
+  SurfaceDetail detail;
+  const Eigen::Vector3d centre = cells.empty() ? Eigen::Vector3d(-plane.offset * plane.normal)
+                                               : vertex_centroid(cells.front()->vertices_m);
+  detail.basis = tile_centred_basis(plane, centre, resolution_m);
+  detail.footprint = Footprint(resolution_m);
+  double area_sum = 0.0;
+  std::vector<double> areas;
+  areas.reserve(cells.size());
+  for (const MapCell* cell : cells) {
+    detail.footprint.add_polygon(project_to_basis(cell->vertices_m, detail.basis));
+    areas.push_back(polygon_area_m2(cell->vertices_m));
+    area_sum += areas.back();
+  }
+  if (area_sum > 0.0) {
+    PlaneMoments moments;
+    for (std::size_t i = 0; i < cells.size(); ++i)
+      moments.add_polygon(cells[i]->vertices_m, information * areas[i] / area_sum);
+    detail.moment_sum = moments.sum;
+    detail.moment_outer = moments.sum_outer;
+  }
+  return detail;
+}
+
+namespace {
+
 LabelState state_of_surface(const Surface& surface) {
   LabelState s;
   s.plane = surface.plane;
-  s.moments = surface.moments;
+  s.moments = moments_of(surface);
   s.histogram = expand(surface.histogram);
   s.histogram_weight_m2 = surface.histogram_weight_m2;
   s.area_m2 = surface.area_m2;
@@ -73,7 +131,7 @@ struct Coverage {
 };
 
 /// Share of `cell` lying in a covering stored cell's polygon (projected onto cell's plane) or in a
-/// covering surface's footprint (cell's points projected orthogonally onto the surface's basis),
+/// covering live surface's footprint (cell's points projected orthogonally onto its basis),
 /// and the surface that covers most grid points (a stored cell counts for its surface; ties go to
 /// the oldest surface). The grid points (coverage_grid) are tested in order, and the test stops
 /// once the outcome against `min_fraction` is decided:
@@ -106,8 +164,9 @@ Coverage coverage_of(const Planecell& cell, std::span<const MapCell* const> cell
       if (rings[i].contains(st)) return cell_slot[i];
     const Eigen::Vector3d p = grid.basis.to_3d(st);
     for (std::size_t j = 0; j < surfaces.size(); ++j) {
-      const Eigen::Vector2d q = surfaces[j]->basis.to_2d(p);
-      if (surfaces[j]->footprint.contains(q.x(), q.y())) return surface_slot[j];
+      const SurfaceDetail& detail = *surfaces[j]->detail;
+      const Eigen::Vector2d q = detail.basis.to_2d(p);
+      if (detail.footprint.contains(q.x(), q.y())) return surface_slot[j];
     }
     return kNone;
   };
@@ -160,6 +219,14 @@ GlobalMap::GlobalMap(const MapConfig& config)
   if (!(config.min_inlier_ratio >= 0.0 && config.min_inlier_ratio <= 1.0))
     throw ConfigError("map.min_inlier_ratio: must be in [0, 1] (0 = no gate), got " +
                       std::to_string(config.min_inlier_ratio));
+  if (config.dormant_after_frames < 0)
+    throw ConfigError("map.dormant_after_frames: must be >= 0 (0 = never), got " +
+                      std::to_string(config.dormant_after_frames));
+  if (config.dormant_after_frames > 0 && config.dormant_after_frames < config.consolidate_after_frames)
+    throw ConfigError("map.dormant_after_frames (" + std::to_string(config.dormant_after_frames) +
+                      ") must be >= map.consolidate_after_frames (" +
+                      std::to_string(config.consolidate_after_frames) +
+                      "): a surface is consolidated before it goes dormant");
   if (config.consolidate_after_frames > 0) {
     auto positive = [](const char* key, double value) {
       if (!(value > 0.0) || !std::isfinite(value))
@@ -182,12 +249,13 @@ GlobalMap::GlobalMap(const MapConfig& config)
 }
 
 bool same_surface(const Surface& a, const Surface& b) {
-  return a.id == b.id && a.plane.normal == b.plane.normal && a.plane.offset == b.plane.offset &&
-         a.moments == b.moments && a.histogram == b.histogram &&
-         a.histogram_weight_m2 == b.histogram_weight_m2 && a.mean_rgb == b.mean_rgb &&
-         a.observed_area_m2 == b.observed_area_m2 && a.area_m2 == b.area_m2 &&
-         a.bounds == b.bounds && a.basis == b.basis && a.cells == b.cells &&
-         a.observations == b.observations && a.footprint == b.footprint;
+  return a.id == b.id && a.observations == b.observations &&
+         a.last_observed_frame == b.last_observed_frame && a.plane.normal == b.plane.normal &&
+         a.plane.offset == b.plane.offset && a.information == b.information &&
+         a.histogram == b.histogram && a.histogram_weight_m2 == b.histogram_weight_m2 &&
+         a.mean_rgb == b.mean_rgb && a.observed_area_m2 == b.observed_area_m2 &&
+         a.area_m2 == b.area_m2 && a.bounds == b.bounds && a.cells == b.cells &&
+         a.detail == b.detail;
 }
 
 std::vector<std::uint32_t> GlobalMap::cells_near(const Aabb& box) const { return query_cells(box); }
@@ -196,24 +264,29 @@ void GlobalMap::absorb_surface(std::uint32_t into_id, std::uint32_t absorbed_id,
                                MergeReport& report) {
   Surface& into = surfaces_.at(into_id);
   Surface& absorbed = surfaces_.at(absorbed_id);
+  wake(into);  // both took part in a merge test, which woke them: no-ops
+  wake(absorbed);
   for (std::uint32_t id : absorbed.cells) {
     cells_.at(id).surface = into.id;
     into.cells.push_back(id);
     report.relabelled_cells.push_back(id);
   }
   // Footprint bits move to into's basis through 3D (bit centres; ≤ one bit of blur).
-  for (const Eigen::Vector2d& st : absorbed.footprint.covered_centres()) {
-    const Eigen::Vector2d moved = into.basis.to_2d(absorbed.basis.to_3d(st));
-    into.footprint.add_point(moved.x(), moved.y());
+  SurfaceDetail& to = *into.detail;
+  const SurfaceDetail& from = *absorbed.detail;
+  for (const Eigen::Vector2d& st : from.footprint.covered_centres()) {
+    const Eigen::Vector2d moved = to.basis.to_2d(from.basis.to_3d(st));
+    to.footprint.add_point(moved.x(), moved.y());
   }
   const double w = into.observed_area_m2 + absorbed.observed_area_m2;
   if (w > 0.0)
     into.mean_rgb = ((into.mean_rgb * into.observed_area_m2 + absorbed.mean_rgb * absorbed.observed_area_m2) / w)
                         .cast<float>();
   into.observed_area_m2 = to_float_precision(w);
-  into.area_m2 = to_float_precision(into.footprint.area_m2());
+  into.area_m2 = to_float_precision(to.footprint.area_m2());
   into.bounds.extend(absorbed.bounds);
   into.observations += absorbed.observations;
+  into.last_observed_frame = std::max({into.last_observed_frame, absorbed.last_observed_frame, report.frame_id});
   surfaces_.erase(absorbed_id);
   touched.erase(absorbed_id);
   touched.insert(into_id);
@@ -358,7 +431,10 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
         auto [it, inserted] = unit_of_map_cell.try_emplace(id, static_cast<std::uint32_t>(units.size()));
         if (inserted) {
           units.push_back({old.surface, &old.plane, old.vertices_m, nullptr, polygon_area_m2(old.vertices_m)});
-          if (!labels.contains(old.surface)) labels.emplace(old.surface, state_of_surface(surface));
+          if (!labels.contains(old.surface)) {
+            wake(surfaces_.at(old.surface));  // its label state needs the moments
+            labels.emplace(old.surface, state_of_surface(surface));
+          }
         }
         edges.push_back({static_cast<std::uint32_t>(k), it->second,
                          std::sqrt(std::min(fresh_area[k], units[it->second].area_m2))});
@@ -386,8 +462,8 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
       auto& candidates = covering_surfaces[k];
       if (std::find(candidates.begin(), candidates.end(), old.surface) != candidates.end())
         continue;
-      if (!surface.footprint.empty() &&
-          effective_sigma_m(surface.moments, surface.observed_area_m2) <= max_surface_sigma &&
+      if (surface.detail && !surface.detail->footprint.empty() &&
+          effective_sigma_m(surface.information, surface.observed_area_m2) <= max_surface_sigma &&
           nearly_coplanar(surface.plane, cell.plane, cell.vertices_m, angle_deg, surface_tol))
         candidates.push_back(old.surface);
     }
@@ -419,7 +495,7 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
     std::vector<const Surface*> covering_surface;  // alive after step 4's merges
     for (std::uint32_t id : covering_surfaces[k]) {
       const auto it = surfaces_.find(union_find.find(id));
-      if (it != surfaces_.end() &&
+      if (it != surfaces_.end() && it->second.detail &&
           std::find(covering_surface.begin(), covering_surface.end(), &it->second) == covering_surface.end())
         covering_surface.push_back(&it->second);
     }
@@ -429,7 +505,9 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
     const bool redundant = coverage.fraction >= config_.redundant_coverage;
     const std::uint32_t cover_surface = coverage.surface;
     if (redundant && !surfaces_.contains(root) && surfaces_.contains(cover_surface)) {
-      ++surfaces_.at(cover_surface).observations;  // a re-observation confirms the surface
+      Surface& covering_surface = surfaces_.at(cover_surface);
+      ++covering_surface.observations;  // a re-observation confirms the surface
+      covering_surface.last_observed_frame = frame_id;
       touched.insert(cover_surface);
       report.cell_surfaces[fresh_input[k]] = cover_surface;
       ++report.fused_cells;
@@ -441,19 +519,22 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
     if (created) {
       created_surfaces.push_back(root);
       surface.id = root;
-      // The first cell lands mid-tile (its centroid half a tile from the basis origin along u and
-      // v), not on the corner of four footprint tiles.
-      surface.basis = make_basis(labels.at(root).plane, vertex_centroid(cell.vertices_m));
-      const double half_tile_m = 0.5 * FootprintTile::kSize * config_.footprint_resolution_m;
-      surface.basis.origin -= half_tile_m * (surface.basis.u + surface.basis.v);
-      surface.basis = to_float_precision(surface.basis);  // storage precision (geometry.hpp)
-      surface.footprint = Footprint(config_.footprint_resolution_m);
+      SurfaceDetail detail;
+      detail.basis = tile_centred_basis(labels.at(root).plane, vertex_centroid(cell.vertices_m),
+                                        config_.footprint_resolution_m);
+      detail.footprint = Footprint(config_.footprint_resolution_m);
+      surface.detail.emplace(std::move(detail));
+      if (config_.dormant_after_frames > 0) dormancy_clock_.emplace(frame_id, root);
+    } else {
+      wake(surface);  // a CRF label already: live
     }
     touched.insert(root);
     report.cell_surfaces[fresh_input[k]] = root;
+    surface.last_observed_frame = frame_id;
     const double area = fresh_area[k];
-    const bool had_footprint = !surface.footprint.empty();
-    const double added = surface.footprint.add_polygon(project_to_basis(cell.vertices_m, surface.basis));
+    SurfaceDetail& detail = *surface.detail;
+    const bool had_footprint = !detail.footprint.empty();
+    const double added = detail.footprint.add_polygon(project_to_basis(cell.vertices_m, detail.basis));
     const double w = surface.observed_area_m2 + area;
     surface.mean_rgb = ((surface.mean_rgb * surface.observed_area_m2 + cell.mean_rgb * area) / w).cast<float>();
     surface.observed_area_m2 = to_float_precision(w);
@@ -534,12 +615,13 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
     if (state_it == labels.end()) continue;
     const LabelState& state = state_it->second;
     surface.plane = to_float_precision(state.plane);
-    surface.moments = state.moments;
+    set_moments(surface, state.moments);
     surface.histogram = compact(state.histogram);
     surface.histogram_weight_m2 = to_float_precision(state.histogram_weight_m2);
   }
   if (config_.bridge_gap_m > 0.0) bridge_surfaces(fresh, fresh_input, camera_centre, touched, report);
   consolidate(frame_id, touched, report);
+  retire_quiet_surfaces(frame_id, report);
   if (!report.removed_cells.empty())  // replaced, pruned or consolidated
     std::erase_if(report.relabelled_cells, [&](std::uint32_t id) { return !cells_.contains(id); });
   report.updated_surfaces.assign(touched.begin(), touched.end());
@@ -612,6 +694,8 @@ void GlobalMap::bridge_surfaces(std::span<const Planecell* const> fresh, std::sp
       if (w == ks.size()) continue;  // this stored cell is out of reach; another of its surface may not be
       checked.insert(other_id);
       const Planecell& cell = *fresh[ks[w]];
+      wake(self);
+      wake(other);
       LabelState a = state_of_surface(self), b = state_of_surface(other);
       const MergeUnit ua{id, &cell.plane, cell.vertices_m, nullptr, polygon_area_m2(cell.vertices_m)};
       const MergeUnit ub{other_id, &old.plane, old.vertices_m, nullptr, polygon_area_m2(old.vertices_m)};
@@ -625,7 +709,7 @@ void GlobalMap::bridge_surfaces(std::span<const Planecell* const> fresh, std::sp
       absorb_surface(into_id, gone_id, touched, report);
       Surface& into = surfaces_.at(into_id);
       into.plane = to_float_precision(state.plane);
-      into.moments = state.moments;
+      set_moments(into, state.moments);
       into.histogram = compact(state.histogram);
       into.histogram_weight_m2 = to_float_precision(state.histogram_weight_m2);
       id = into_id;
@@ -640,9 +724,13 @@ MapBytes GlobalMap::map_bytes_by_part() const {
   bytes.index = index_.bytes();
   bytes.cells += consolidation_queue_.size() * sizeof(consolidation_queue_.front());
   for (const auto& [id, cell] : cells_) bytes.vertices += cell.vertices_m.capacity() * sizeof(Eigen::Vector3f);
+  bytes.surfaces += dormancy_clock_.size() * sizeof(std::pair<std::uint64_t, std::uint32_t>);
   for (const auto& [id, surface] : surfaces_) {
     bytes.surfaces += surface.cells.capacity() * sizeof(std::uint32_t);
-    bytes.footprints += surface.footprint.bytes();
+    if (surface.detail) {
+      bytes.surfaces += sizeof(SurfaceDetail);
+      bytes.footprints += surface.detail->footprint.bytes();
+    }
   }
   return bytes;
 }
@@ -670,9 +758,12 @@ void GlobalMap::consolidate(std::uint64_t frame_id, std::set<std::uint32_t>& tou
   }
   const auto age = static_cast<std::uint64_t>(config_.consolidate_after_frames);
   using Tile = std::pair<std::int64_t, std::int64_t>;
-  auto tile_of = [&](const Surface& surface, const MapCell& cell) {
+  // A surface goes dormant only after its cells are consolidated (dormant_after_frames ≥
+  // consolidate_after_frames): the wakes below are no-ops.
+  auto tile_of = [&](Surface& surface, const MapCell& cell) {
+    wake(surface);
     const Eigen::Vector2d st =
-        surface.basis.to_2d(vertex_centroid(cell.vertices_m)) / config_.consolidate_tile_m;
+        surface.detail->basis.to_2d(vertex_centroid(cell.vertices_m)) / config_.consolidate_tile_m;
     return Tile(static_cast<std::int64_t>(std::floor(st.x())),
                 static_cast<std::int64_t>(std::floor(st.y())));
   };
@@ -722,7 +813,7 @@ void GlobalMap::consolidate(std::uint64_t frame_id, std::set<std::uint32_t>& tou
       std::vector<std::span<const Eigen::Vector3f>> polygons;
       for (const MapCell* cell : group) polygons.emplace_back(cell->vertices_m);
       const std::vector<CellUnion> unions =
-          unite_cells(polygons, surface.basis, surface.plane, settings);
+          unite_cells(polygons, surface.detail->basis, surface.plane, settings);
       // A union the map cannot hold (cell_problem) is dropped, and its members stay.
       std::vector<bool> member(group.size(), false), kept(group.size(), false);
       std::vector<bool> usable(unions.size());
@@ -807,6 +898,9 @@ GlobalMap GlobalMap::restore(const MapConfig& config, std::vector<MapCell> cells
     if (surface.observations == 1 && !surface.cells.empty())
       if (const MapCell* cell = map.cell(surface.cells.front()))
         map.single_observation_since_.emplace(cell->frame_id, id);
+  if (config.dormant_after_frames > 0)
+    for (const auto& [id, surface] : map.surfaces_)
+      if (surface.detail) map.dormancy_clock_.emplace(surface.last_observed_frame, id);
   // Cells the consolidation had not yet considered: stored after last_frame_id − age.
   const auto age = static_cast<std::uint64_t>(std::max(0, config.consolidate_after_frames));
   for (const auto& [id, cell] : map.cells_)
@@ -814,6 +908,45 @@ GlobalMap GlobalMap::restore(const MapConfig& config, std::vector<MapCell> cells
       map.consolidation_queue_.emplace_back(cell.frame_id, id);
   std::sort(map.consolidation_queue_.begin(), map.consolidation_queue_.end());
   return map;
+}
+
+void GlobalMap::wake(Surface& surface) {
+  if (surface.detail) return;
+  std::vector<const MapCell*> cells;
+  cells.reserve(surface.cells.size());
+  for (std::uint32_t id : surface.cells) cells.push_back(&cells_.at(id));
+  surface.detail.emplace(surface_detail_from_cells(surface.plane, surface.information, cells,
+                                                   config_.footprint_resolution_m));
+  if (config_.dormant_after_frames > 0) dormancy_clock_.emplace(surface.last_observed_frame, surface.id);
+}
+
+void GlobalMap::retire_quiet_surfaces(std::uint64_t frame_id, MergeReport& report) {
+  if (config_.dormant_after_frames <= 0) return;
+  const auto quiet = static_cast<std::uint64_t>(config_.dormant_after_frames);
+  while (!dormancy_clock_.empty() && dormancy_clock_.top().first + quiet <= frame_id) {
+    const std::uint32_t id = dormancy_clock_.top().second;
+    dormancy_clock_.pop();
+    const auto it = surfaces_.find(id);
+    if (it == surfaces_.end() || !it->second.detail) continue;  // absorbed, pruned or dormant
+    Surface& surface = it->second;
+    if (surface.last_observed_frame + quiet > frame_id) {  // observed since: due later
+      dormancy_clock_.emplace(surface.last_observed_frame, id);
+      continue;
+    }
+    surface.detail.reset();
+    report.dormant_surfaces.push_back(id);
+  }
+  std::sort(report.dormant_surfaces.begin(), report.dormant_surfaces.end());
+}
+
+SurfaceDetail GlobalMap::surface_detail(std::uint32_t id) const {
+  const Surface* surface = this->surface(id);
+  if (!surface) throw InputError("surface_detail: no surface " + std::to_string(id) + " in the map");
+  if (surface->detail) return *surface->detail;
+  std::vector<const MapCell*> cells;
+  for (std::uint32_t cell_id : surface->cells) cells.push_back(&cells_.at(cell_id));
+  return surface_detail_from_cells(surface->plane, surface->information, cells,
+                                   config_.footprint_resolution_m);
 }
 
 bool GlobalMap::same_content(const GlobalMap& other) const {

@@ -8,6 +8,7 @@
 #include <map>
 #include <opencv2/core/mat.hpp>
 #include <optional>
+#include <queue>
 #include <set>
 #include <span>
 #include <unordered_map>
@@ -19,6 +20,7 @@
 #include "mapping/map/crf_merger.hpp"
 #include "mapping/map/footprint.hpp"
 #include "mapping/map/geometry.hpp"
+#include "mapping/map/heap_optional.hpp"
 #include "mapping/map/map_cell.hpp"
 #include "mapping/map/spatial_index.hpp"
 
@@ -33,22 +35,58 @@ CompactHistogram compact(const ColourHistogram& histogram);
 /// q → q / 65535.
 ColourHistogram expand(const CompactHistogram& histogram);
 
+/// What the map keeps of a surface only while observations keep reaching it
+/// (MapConfig::dormant_after_frames): the moments behind its plane (but their weight, which the
+/// surface keeps: Surface::information) and its footprint in its 2D basis. A surface no
+/// observation has reached for that long drops it (it is dormant); when new cells come near it
+/// again, the map rebuilds it from the surface's stored cells (surface_detail_from_cells).
+struct SurfaceDetail {
+  Eigen::Vector3d moment_sum = Eigen::Vector3d::Zero();        ///< PlaneMoments::sum
+  Eigen::Matrix3d moment_outer = Eigen::Matrix3d::Zero();      ///< PlaneMoments::sum_outer
+  PlaneBasis basis;    ///< 2D frame of the footprint (fixed when the detail is made)
+  Footprint footprint;  ///< cells' union in `basis` (occupancy bits)
+  bool operator==(const SurfaceDetail&) const = default;
+};
+
 /// A surface: coplanar cells sharing one CRF label.
 struct Surface {
   std::uint32_t id = 0;
+  std::uint32_t observations = 0;  ///< integrated cells, fused ones included
+  /// Last frame whose cells reached the surface (stored, fused or merged into it; absorbing
+  /// another surface counts too): its dormancy clock.
+  std::uint64_t last_observed_frame = 0;
   Plane3 plane;                  ///< least-squares plane of all integrated cells (world)
-  PlaneMoments moments;          ///< area-weighted vertex moments behind `plane`
+  /// Σ w of the moments behind `plane` (w = area / σ² per observation): the surface's
+  /// information, kept when it is dormant (σ_eff and the rebuilt moments need it).
+  double information = 0.0;
   CompactHistogram histogram{};  ///< area-weighted mean of the integrated cells' histograms
   double histogram_weight_m2 = 0.0;
   Eigen::Vector3f mean_rgb = Eigen::Vector3f::Zero();  ///< area-weighted mean colour (0..255 RGB)
   double observed_area_m2 = 0.0;  ///< Σ area of every integrated cell, fused ones included
-  double area_m2 = 0.0;           ///< area of the footprint (union of all integrated cells)
+  /// Area of the footprint (union of all integrated cells); a dormant surface keeps the figure
+  /// it had when it went dormant, and a rebuilt footprint adds to it from then on.
+  double area_m2 = 0.0;
   Aabb bounds;                    ///< bounds of every integrated cell's vertices
-  PlaneBasis basis;               ///< 2D frame of the footprint (fixed at creation)
-  Footprint footprint;                         ///< cells' union in `basis` (occupancy bits)
-  std::vector<std::uint32_t> cells;            ///< stored member cells (map cell ids)
-  std::uint32_t observations = 0;              ///< integrated cells, fused ones included
+  std::vector<std::uint32_t> cells;  ///< stored member cells (map cell ids)
+  HeapOptional<SurfaceDetail> detail;  ///< empty while the surface is dormant
 };
+
+/// The surface's plane moments {information, moment_sum, moment_outer}; those of a dormant
+/// surface have its weight and no points (sum and outer products zero).
+PlaneMoments moments_of(const Surface& surface);
+/// Stores `moments` in a live surface (information and detail); throws std::logic_error when the
+/// surface is dormant.
+void set_moments(Surface& surface, const PlaneMoments& moments);
+
+/// The detail of a surface on `plane` with information `information` holding `cells`, rebuilt
+/// from them: its basis on the plane around the first cell's vertex centroid (the tile layout of
+/// a new surface), its footprint their polygons rasterised at resolution_m, and moments of
+/// weight `information` spread over the cells' vertices by area (Σ_i w_i = information,
+/// w_i ∝ area_i). The observations fused without being stored are not in it: after
+/// consolidation the stored cells cover them to within a footprint bit.
+SurfaceDetail surface_detail_from_cells(const Plane3& plane, double information,
+                                        std::span<const MapCell* const> cells,
+                                        double resolution_m);
 
 /// True when every field of `a` and `b` is equal (GlobalMap::same_content compares surfaces so).
 bool same_surface(const Surface& a, const Surface& b);
@@ -77,6 +115,10 @@ struct MergeReport {
   /// removed_cells, the cells standing for them in added_cells.
   std::size_t consolidated_cells = 0;
   std::vector<std::uint32_t> updated_surfaces;  ///< surfaces created or changed (alive, sorted)
+  /// Surfaces that went dormant this frame (MapConfig::dormant_after_frames; sorted): they kept
+  /// every descriptor field and dropped their detail, so the store rewrites them but map
+  /// consumers see no change.
+  std::vector<std::uint32_t> dormant_surfaces;
   std::vector<std::uint32_t> removed_surfaces;  ///< surfaces absorbed by merges or pruned
   /// Of removed_surfaces, those pruned as unconfirmed (MapConfig::unconfirmed_max_age_frames),
   /// with their cells; the others were absorbed (surface_merges).
@@ -135,8 +177,10 @@ class GlobalMap {
   /// histogram is folded into its surface's. A surface left with a single observation when new
   /// cells come near it again MapConfig::unconfirmed_max_age_frames or more frames after it was
   /// stored is pruned (MergeReport::pruned_surfaces), and so is one still holding a single
-  /// observation MapConfig::unconfirmed_timeout_frames after it was stored. Throws InputError on a
-  /// bad pose.
+  /// observation MapConfig::unconfirmed_timeout_frames after it was stored. A surface no
+  /// observation has reached for MapConfig::dormant_after_frames goes dormant (drops its
+  /// SurfaceDetail: MergeReport::dormant_surfaces) and is woken, its detail rebuilt from its cells,
+  /// when new cells come near it again. Throws InputError on a bad pose.
   MergeReport integrate(std::uint64_t frame_id, const Pose& T_world_cam,
                         std::span<const Planecell> cells_world,
                         std::span<const LabelEdge> image_adjacency = {});
@@ -157,6 +201,10 @@ class GlobalMap {
   std::uint32_t next_cell_id() const { return next_cell_id_; }
   std::uint32_t next_surface_id() const { return next_surface_id_; }
 
+  /// The detail of surface `id`: its own while it is live, rebuilt from its cells
+  /// (surface_detail_from_cells) while it is dormant. Throws InputError for an unknown id.
+  SurfaceDetail surface_detail(std::uint32_t id) const;
+
   /// Ids of stored cells whose bounds overlap `box` (sorted).
   std::vector<std::uint32_t> cells_near(const Aabb& box) const;
   /// Ids of stored cells in the spatial-index buckets `box` touches (sorted): a superset of
@@ -169,7 +217,8 @@ class GlobalMap {
 
   /// The ground surface under `point`: among surfaces whose normal is within max_ground_tilt_deg of
   /// "up", the one whose plane is closest below the point (0 ≤ height ≤ max_drop_m along up) and
-  /// whose footprint contains the point's vertical projection.
+  /// one of whose stored cells contains the point's vertical projection (seen along up; a live
+  /// map and its LCM mirror, which holds the cells only, give the same answer).
   std::optional<GroundHit> ground_under(const Eigen::Vector3d& point, double max_drop_m = 10.0) const;
 
   /// Height map of the region [a0, a0 + cols·res) × [b0, b0 + rows·res) of the horizontal axes
@@ -226,6 +275,13 @@ class GlobalMap {
   /// their unions enter it (report.added_cells); `touched` gains their surfaces.
   void consolidate(std::uint64_t frame_id, std::set<std::uint32_t>& touched, MergeReport& report);
 
+  /// Gives dormant surface `surface` its detail again, rebuilt from its cells, and puts it back
+  /// on the dormancy clock; a live surface is left as it is.
+  void wake(Surface& surface);
+  /// MapConfig::dormant_after_frames: surfaces no observation has reached since
+  /// frame_id − dormant_after_frames drop their detail (report.dormant_surfaces).
+  void retire_quiet_surfaces(std::uint64_t frame_id, MergeReport& report);
+
   MapConfig config_;
   Eigen::Vector3d up_;
   CrfMerger merger_;
@@ -238,6 +294,12 @@ class GlobalMap {
   /// (frame stored, cell id) of the cells the consolidation has not yet considered, oldest first
   /// (derived state: restore rebuilds it from last_frame_id).
   std::deque<std::pair<std::uint64_t, std::uint32_t>> consolidation_queue_;
+  /// (frame, surface id), least first: one entry per live surface, at or before its
+  /// last_observed_frame; an entry falling due for a surface observed since is put back at that
+  /// frame (derived state: restore rebuilds it).
+  std::priority_queue<std::pair<std::uint64_t, std::uint32_t>,
+                      std::vector<std::pair<std::uint64_t, std::uint32_t>>, std::greater<>>
+      dormancy_clock_;
   std::uint32_t next_cell_id_ = 0;
   std::uint32_t next_surface_id_ = 0;
 };

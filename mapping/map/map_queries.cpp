@@ -46,21 +46,24 @@ std::optional<GroundHit> GlobalMap::ground_under(const Eigen::Vector3d& point,
   Aabb column;
   column.extend(point);
   column.extend(point - max_drop_m * up_);
-  std::set<std::uint32_t> candidates;
-  for (std::uint32_t id : query_cells(column.inflated(1e-6))) candidates.insert(cells_.at(id).surface);
   const double min_cos = std::cos(config_.max_ground_tilt_deg * std::numbers::pi / 180.0);
+  const auto [axis_a, axis_b] = horizontal_axes(up_);
+  const Eigen::Vector2d point_ab(point.dot(axis_a), point.dot(axis_b));
   std::optional<GroundHit> best;
-  for (std::uint32_t sid : candidates) {
-    const Surface& s = surfaces_.at(sid);
+  std::vector<Eigen::Vector2d> ring;
+  for (std::uint32_t id : query_cells(column.inflated(1e-6))) {
+    const MapCell& cell = cells_.at(id);
+    const Surface& s = surfaces_.at(cell.surface);
     const double n_up = s.plane.normal.dot(up_);
     if (std::abs(n_up) < min_cos) continue;
-    // Vertical line X = p − h·up meets the plane where n·p − h·(n·up) + e = 0.
+    // Vertical line X = p − h·up meets the surface's plane where n·p − h·(n·up) + e = 0.
     const double h = s.plane.signed_distance(point) / n_up;
-    if (h < 0.0 || h > max_drop_m) continue;
-    const Eigen::Vector3d ground = point - h * up_;
-    const Eigen::Vector2d st = s.basis.to_2d(ground);
-    if (!s.footprint.contains(st.x(), st.y())) continue;
-    if (!best || h < best->height_above_m) best = GroundHit{sid, h, ground};
+    if (h < 0.0 || h > max_drop_m || (best && h >= best->height_above_m)) continue;
+    // The vertical line passes through the cell: the point inside its polygon seen along up.
+    ring.clear();
+    for (const auto& v : cell.vertices_m) ring.emplace_back(v.cast<double>().dot(axis_a), v.cast<double>().dot(axis_b));
+    if (!point_in_ring(ring, point_ab)) continue;
+    best = GroundHit{cell.surface, h, point - h * up_};
   }
   return best;
 }

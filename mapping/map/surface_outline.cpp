@@ -35,11 +35,12 @@ MultiPolygon2 cascaded_union(std::vector<MultiPolygon2> parts) {
 
 }  // namespace
 
-std::vector<OutlineRing> surface_outline(const Surface& surface, double tolerance_m) {
+std::vector<OutlineRing> surface_outline(const Plane3& plane, const SurfaceDetail& detail,
+                                         double tolerance_m) {
   if (!(tolerance_m >= 0.0) || !std::isfinite(tolerance_m))
     throw InputError("surface outline: tolerance must be a finite number ≥ 0 m, got " +
                      std::to_string(tolerance_m));
-  const Footprint& footprint = surface.footprint;
+  const Footprint& footprint = detail.footprint;
   if (footprint.empty()) return {};
   constexpr int N = FootprintTile::kSize;
   // Covered bits per row t (bit indices), then each row's runs of consecutive bits as rectangles
@@ -85,14 +86,14 @@ std::vector<OutlineRing> surface_outline(const Surface& surface, double toleranc
     simple.push_back(std::move(simplified));
   }
 
-  const Eigen::Vector3d n = surface.plane.normal.normalized();
-  const double e = surface.plane.offset / surface.plane.normal.norm();
+  const Eigen::Vector3d n = plane.normal.normalized();
+  const double e = plane.offset / plane.normal.norm();
   auto ring_of = [&](const auto& points, bool hole) {
     OutlineRing ring;
     ring.hole = hole;
     for (std::size_t k = 0; k + 1 < points.size(); ++k) {  // the last point closes the ring
       const Eigen::Vector3d x =
-          surface.basis.to_3d({bg::get<0>(points[k]) * res, bg::get<1>(points[k]) * res});
+          detail.basis.to_3d({bg::get<0>(points[k]) * res, bg::get<1>(points[k]) * res});
       ring.vertices_m.push_back(x - (n.dot(x) + e) * n);  // onto the surface's current plane
     }
     return ring;

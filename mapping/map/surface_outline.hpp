@@ -16,16 +16,18 @@ struct OutlineRing {
   bool hole = false;  ///< a hole inside the preceding outer ring
 };
 
-/// The outline of `surface`: the exact boundary of the union of its footprint's covered bits
-/// (squares of footprint.resolution_m() on the surface's basis; each row's runs of bits as
+/// The outline of a surface on `plane` with detail `detail` (GlobalMap::surface_detail): the exact
+/// boundary of the union of its footprint's covered bits (squares of footprint.resolution_m() on
+/// the detail's basis; each row's runs of bits as
 /// rectangles, united with Boost.Geometry), simplified by Douglas–Peucker
 /// (boost::geometry::simplify) to within tolerance_m (0 keeps every corner, dropping only collinear
 /// vertices), then lifted from the basis onto the surface's current plane (X = o + s·u + t·v, moved
-/// along n onto n·X + e = 0; the basis is fixed when the surface is created, so a surface whose
+/// along n onto n·X + e = 0; the basis is fixed when the detail is made, so a surface whose
 /// plane has since turned by α encloses cos α of its footprint area). Outer rings come each
 /// followed by their holes. A polygon narrower than the tolerance keeps its unsimplified corners; a
 /// hole that simplifies below three vertices is dropped. Empty for an empty footprint. Throws
 /// InputError when tolerance_m is negative or not finite.
-std::vector<OutlineRing> surface_outline(const Surface& surface, double tolerance_m);
+std::vector<OutlineRing> surface_outline(const Plane3& plane, const SurfaceDetail& detail,
+                                         double tolerance_m);
 
 }  // namespace planecell::map

@@ -21,11 +21,8 @@ map::GlobalMap mirror_to_map(const io::MapMirror& mirror, const MapConfig& confi
     map::Surface surface;
     surface.id = label;
     surface.plane = largest->plane;
-    surface.basis = map::make_basis(surface.plane, map::vertex_centroid(largest->vertices_m));
-    surface.footprint = map::Footprint(config.footprint_resolution_m);
     for (const map::MapCell* cell : cells) {
       const double area = map::polygon_area_m2(cell->vertices_m);
-      surface.footprint.add_polygon(map::project_to_basis(cell->vertices_m, surface.basis));
       surface.bounds.extend(map::bounds_of(cell->vertices_m));
       surface.observed_area_m2 += area;
       surface.mean_rgb += static_cast<float>(area) * cell->mean_rgb;
@@ -33,7 +30,9 @@ map::GlobalMap mirror_to_map(const io::MapMirror& mirror, const MapConfig& confi
       ++surface.observations;
     }
     if (surface.observed_area_m2 > 0.0) surface.mean_rgb /= static_cast<float>(surface.observed_area_m2);
-    surface.area_m2 = surface.footprint.area_m2();
+    // Dormant (no detail: queries need the cells only); the area of the cells' union.
+    surface.area_m2 = map::surface_detail_from_cells(surface.plane, 0.0, cells, config.footprint_resolution_m)
+                          .footprint.area_m2();
     surfaces.push_back(std::move(surface));
   }
   std::vector<map::MapCell> cells;

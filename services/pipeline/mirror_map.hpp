@@ -9,10 +9,10 @@
 namespace planecell::services {
 
 /// GlobalMap holding exactly the mirror's cells (same ids, planes, polygons, surface labels) and
-/// one surface per label: the plane of its largest cell, a footprint that is the union of its
-/// cells in that plane's basis, and their bounds. nearest_cell answers exactly as on the daemon's
-/// map; ground_under approximately (the daemon's surface planes are fitted over every observation,
-/// fused ones included, which updates do not carry).
+/// one dormant surface per label (no SurfaceDetail): the plane of its largest cell, the area of
+/// its cells' union (a footprint rasterised for the count), and their bounds. nearest_cell answers
+/// exactly as on the daemon's map; ground_under approximately (the daemon's surface planes are
+/// fitted over every observation, fused ones included, which updates do not carry).
 map::GlobalMap mirror_to_map(const io::MapMirror& mirror, const MapConfig& config);
 
 /// Writes `map` as a new map store at `path` (one frame, `frame_id`). Throws StorageError when the

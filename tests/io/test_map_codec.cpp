@@ -6,6 +6,7 @@
 #include <cstring>
 #include <limits>
 #include <random>
+#include <zlib.h>
 
 #include "core/error.hpp"
 #include "io/map_codec.hpp"
@@ -31,9 +32,10 @@ map::Surface awkward_surface() {
   s.id = 7;
   s.plane.normal = vec().normalized();
   s.plane.offset = real(rng);
-  s.moments.weight = std::abs(real(rng));
-  s.moments.sum = vec();
-  s.moments.sum_outer << vec(), vec(), vec();
+  s.information = std::abs(real(rng));
+  map::SurfaceDetail& d = s.detail.emplace(map::SurfaceDetail{});
+  d.moment_sum = vec();
+  d.moment_outer << vec(), vec(), vec();
   for (std::size_t q = 0; q < s.histogram.size(); ++q)
     s.histogram[q] = static_cast<std::uint16_t>(q * q % 97);
   s.histogram_weight_m2 = std::abs(real(rng));
@@ -42,21 +44,22 @@ map::Surface awkward_surface() {
   s.area_m2 = std::abs(real(rng));
   s.bounds.min = vec();
   s.bounds.max = s.bounds.min + vec().cwiseAbs();
-  s.basis.origin = vec();
-  s.basis.u = vec().normalized();
-  s.basis.v = s.basis.u.unitOrthogonal();
+  d.basis.origin = vec();
+  d.basis.u = vec().normalized();
+  d.basis.v = d.basis.u.unitOrthogonal();
   s.cells = {3, 900, 70000, 5};
   s.observations = 300;
-  s.footprint = map::Footprint(0.1);
+  s.last_observed_frame = 123456789;
+  d.footprint = map::Footprint(0.1);
   const std::vector<Eigen::Vector2d> square{{0.0, 0.0}, {2.0, 0.0}, {2.0, 1.5}, {0.0, 1.5}};
-  s.footprint.add_polygon(square);
+  d.footprint.add_polygon(square);
   return s;
 }
 
 /// The same surface at the map's storage precision (what GlobalMap keeps).
 map::Surface rounded(map::Surface s) {
   s.plane = map::to_float_precision(s.plane);
-  s.basis = map::to_float_precision(s.basis);
+  s.detail->basis = map::to_float_precision(s.detail->basis);
   s.histogram_weight_m2 = map::to_float_precision(s.histogram_weight_m2);
   s.observed_area_m2 = map::to_float_precision(s.observed_area_m2);
   s.area_m2 = map::to_float_precision(s.area_m2);
@@ -71,9 +74,75 @@ TEST(MapCodecTest, SurfaceRoundTripsExactlyInEveryVersion) {
          ++version) {
       SCOPED_TRACE(version);
       const auto blob = map_codec::encode_surface(s, version);
+      map::Surface expected = s;
+      if (version < 7) expected.last_observed_frame = 0;  // not stored before version 7
       EXPECT_TRUE(map::same_surface(
-          map_codec::decode_surface(s.id, blob.data(), blob.size(), "test", version), s));
+          map_codec::decode_surface(s.id, blob.data(), blob.size(), "test", version), expected));
     }
+}
+
+/// Inflates a deflated surface blob (versions 5–7) to its raw encoding.
+std::vector<std::uint8_t> inflate_blob(const std::vector<std::uint8_t>& blob) {
+  std::uint32_t raw_size = 0;
+  std::memcpy(&raw_size, blob.data(), sizeof(raw_size));
+  std::vector<std::uint8_t> raw(raw_size);
+  auto size = static_cast<uLongf>(raw.size());
+  EXPECT_EQ(uncompress(raw.data(), &size, blob.data() + sizeof(raw_size),
+                       static_cast<uLong>(blob.size() - sizeof(raw_size))),
+            Z_OK);
+  return raw;
+}
+
+/// The deflated blob of a raw encoding (what encode_surface writes).
+std::vector<std::uint8_t> deflate_blob(const std::vector<std::uint8_t>& raw) {
+  std::vector<std::uint8_t> blob(sizeof(std::uint32_t) + compressBound(static_cast<uLong>(raw.size())));
+  const auto raw_size = static_cast<std::uint32_t>(raw.size());
+  std::memcpy(blob.data(), &raw_size, sizeof(raw_size));
+  auto size = static_cast<uLongf>(blob.size() - sizeof(raw_size));
+  EXPECT_EQ(compress2(blob.data() + sizeof(raw_size), &size, raw.data(), raw.size(), Z_DEFAULT_COMPRESSION),
+            Z_OK);
+  blob.resize(sizeof(raw_size) + size);
+  return blob;
+}
+
+TEST(MapCodecTest, DormantSurfaceKeepsItsDescriptorOnlyAndNeedsVersion7) {
+  map::Surface live = rounded(awkward_surface());
+  map::Surface dormant = live;
+  dormant.detail.reset();
+  const auto blob = map_codec::encode_surface(dormant);
+  const map::Surface back = map_codec::decode_surface(dormant.id, blob.data(), blob.size(), "test");
+  EXPECT_TRUE(map::same_surface(back, dormant));
+  EXPECT_FALSE(back.detail.has_value());
+  // The detail is most of a surface's bytes: 12 moment doubles, the basis and a footprint tile.
+  const auto live_raw = inflate_blob(map_codec::encode_surface(live));
+  const auto dormant_raw = inflate_blob(blob);
+  EXPECT_EQ(live_raw.size() - dormant_raw.size(),
+            12 * sizeof(double) + (1 + 3 * 4) + (1 + 6 * 4) + sizeof(double) + 1 +
+                live.detail->footprint.tiles().size() * sizeof(map::FootprintTile));
+  // Versions before 7 had no dormant surfaces: refused, not written without its detail.
+  EXPECT_CONTAINS(storage_error_of([&] { (void)map_codec::encode_surface(dormant, 6); }),
+                  "surface 7 is dormant: store version 6 cannot hold it");
+  // A flag byte other than 0 or 1 is named.
+  auto bad_flag = dormant_raw;
+  ASSERT_EQ(bad_flag.back(), 0);
+  bad_flag.back() = 2;
+  const auto bad_blob = deflate_blob(bad_flag);
+  EXPECT_CONTAINS(storage_error_of([&] {
+                    (void)map_codec::decode_surface(7, bad_blob.data(), bad_blob.size(), "store");
+                  }),
+                  "store: surface 7: detail flag 2 is neither 0 nor 1");
+}
+
+TEST(MapCodecTest, HistogramTakesTwoBytesPerNonZeroBin) {
+  map::Surface s = rounded(awkward_surface());
+  s.detail.reset();
+  s.histogram.fill(0);
+  const auto empty = inflate_blob(map_codec::encode_surface(s));
+  s.histogram[0] = 65535, s.histogram[17] = 1, s.histogram[63] = 300;
+  const auto blob = map_codec::encode_surface(s);
+  EXPECT_EQ(inflate_blob(blob).size(), empty.size() + 3 * sizeof(std::uint16_t));
+  const map::Surface back = map_codec::decode_surface(s.id, blob.data(), blob.size(), "test");
+  EXPECT_EQ(back.histogram, s.histogram);
 }
 
 /// At storage precision the plane, areas, bounds and basis (22 reals) go as floats: 88 bytes
@@ -164,8 +233,8 @@ TEST(MapCodecTest, CorruptBlobsAreNamedNotMisread) {
                     (void)map_codec::decode_plane(plane.data(), plane.size(), "cell 4 plane");
                   }),
                   "cell 4 plane: real group flag 9");
-  EXPECT_CONTAINS(storage_error_of([&] { (void)map_codec::encode_plane(Plane3{}, 7); }),
-                  "store version 7");
+  EXPECT_CONTAINS(storage_error_of([&] { (void)map_codec::encode_plane(Plane3{}, 8); }),
+                  "store version 8");
 }
 
 }  // namespace

@@ -269,7 +269,7 @@ TEST(MapStoreTest, OtherFormatVersionIsRejectedByNameAndLeftUnchanged) {
     FAIL() << "expected StorageError";
   } catch (const StorageError& e) {
     const std::string what = e.what();
-    EXPECT_NE(what.find("version '2' is not the version 6"), std::string::npos) << what;
+    EXPECT_NE(what.find("version '2' is not the version 7"), std::string::npos) << what;
     EXPECT_NE(what.find(path.string()), std::string::npos) << what;
   }
   EXPECT_EQ(read_bytes(path), before);
@@ -327,7 +327,7 @@ void edit_first_surface(const std::filesystem::path& path,
   ASSERT_EQ(edit_surfaces(path, edit, true), 1u);
 }
 
-/// Rewrites a current (version 6) store as an earlier release wrote it: surface blobs (the
+/// Rewrites a current (version 7) store as an earlier release wrote it: surface blobs (the
 /// deflated stream after the 4-byte raw size, inflated here with zlib directly, which also checks
 /// the documented layout) and cell planes and vertices re-encoded as `version` wrote them, for
 /// 3 and 4 the cells_by_surface index, and for 3 no frames.input_pose.
@@ -396,11 +396,13 @@ std::vector<std::string> index_names(const std::filesystem::path& path) {
   return names;
 }
 
-/// Versions 5 (raw reals and float vertices) and 4 (as 5 with raw surface blobs and the
-/// cells_by_surface index) are upgraded to compact reals and millimetre vertices: the map and
-/// input poses read back are the ones written, and the store reads as version 6 afterwards.
-TEST(MapStoreTest, VersionFiveAndFourStoresAreUpgradedInPlaceAndResume) {
-  for (const int version : {5, 4}) {
+/// Versions 6 (dense histograms, no dormant surfaces, no last observed frame), 5 (as 6 with raw
+/// reals and float vertices) and 4 (as 5 with raw surface blobs and the cells_by_surface index)
+/// are upgraded to version 7: the map and input poses read back are the ones written (every
+/// surface of this drive was observed in its last frame, which the upgrade takes as each
+/// surface's last observed frame), and the store reads as version 7 afterwards.
+TEST(MapStoreTest, VersionSixFiveAndFourStoresAreUpgradedInPlaceAndResume) {
+  for (const int version : {6, 5, 4}) {
     SCOPED_TRACE(version);
     test::ScratchDir dir;
     const auto path = dir / "old.db";
@@ -411,6 +413,7 @@ TEST(MapStoreTest, VersionFiveAndFourStoresAreUpgradedInPlaceAndResume) {
       store.commit_frame(4, frame_pose(4), written.integrate(4, frame_pose(4), frame_cells(4)),
                          written, frame_pose(3));
     }
+    for (const auto& [id, surface] : written.surfaces()) ASSERT_EQ(surface.last_observed_frame, 4u);
     make_legacy_store(path, version);
     ASSERT_EQ(index_names(path).size(), version == 4 ? 1u : 0u);
     {
@@ -420,7 +423,7 @@ TEST(MapStoreTest, VersionFiveAndFourStoresAreUpgradedInPlaceAndResume) {
       EXPECT_TRUE(load_map(store).same_content(written));
     }
     EXPECT_TRUE(index_names(path).empty());
-    MapStore again(path);  // version 6 now: read as it is
+    MapStore again(path);  // version 7 now: read as it is
     EXPECT_TRUE(load_map(again).same_content(written));
   }
 }
@@ -446,7 +449,7 @@ TEST(MapStoreTest, VersionThreeStoreIsUpgradedInPlaceAndResumes) {
     store.commit_frame(3, frame_pose(3), report, resumed, frame_pose(2));
     EXPECT_TRUE(store.input_pose(3)->isApprox(frame_pose(2), 0.0));
   }
-  // Reopened: version 6 now, no second upgrade.
+  // Reopened: version 7 now, no second upgrade.
   MapStore again(path);
   EXPECT_EQ(again.frame_count(), 4u);
   EXPECT_TRUE(again.input_pose(3)->isApprox(frame_pose(2), 0.0));

@@ -9,6 +9,7 @@
 #include "core/error.hpp"
 #include "mapping/map/global_map.hpp"
 #include "mapping/map/pose_transform.hpp"
+#include "support/expect_error.hpp"
 #include "support/planecell_fixtures.hpp"
 
 namespace planecell::map {
@@ -187,10 +188,10 @@ TEST(GlobalMapTest, FirstCellOfASurfaceFillsOneFootprintTile) {
   map.integrate(0, Pose::Identity(), std::vector<Planecell>{rect_cell(0, {0, 1.5f, 5}, kX, kZ, 0)});
   ASSERT_EQ(map.surfaces().size(), 1u);
   const Surface& surface = map.surfaces().begin()->second;
-  EXPECT_EQ(surface.footprint.tiles().size(), 1u);
+  EXPECT_EQ(surface.detail->footprint.tiles().size(), 1u);
   EXPECT_NEAR(surface.area_m2, 1.0, 0.25);  // 10 cm bits along a 1 m square's edges
   // The cell's centre is half a tile (1.6 m) from the basis origin along both axes.
-  const Eigen::Vector2d centre = surface.basis.to_2d(Eigen::Vector3d(0.5, 1.5, 5.5));
+  const Eigen::Vector2d centre = surface.detail->basis.to_2d(Eigen::Vector3d(0.5, 1.5, 5.5));
   EXPECT_NEAR(std::abs(centre.x()), 1.6, 1e-6);
   EXPECT_NEAR(std::abs(centre.y()), 1.6, 1e-6);
 }
@@ -454,6 +455,125 @@ TEST(Fusion, LoopedDriveSecondPassGrowsMapByLessThan15Percent) {
       << " B, " << map.cells().size() << " cells";
 }
 
+/// A 2 m × 2 m road patch at z ∈ [10, 12] (four 1 m cells of one colour), seen in frames 0 and 1
+/// and again, its tiling shifted by 0.3 m, from frame `revisit` on; every frame also sees a wall
+/// 40 m away, which keeps the map busy but never comes near the patch.
+struct QuietPatch {
+  static constexpr std::uint64_t kRevisit = 9;
+  static std::vector<Planecell> patch(float shift) {
+    std::vector<Planecell> cells;
+    test::tile(cells, {0.0f, 1.5f, 10.0f}, kX, kZ, 2.0f, 2.0f, 1.0f, shift, 3);
+    return cells;
+  }
+  static std::vector<Planecell> frame(std::uint64_t f) {
+    std::vector<Planecell> cells;
+    if (f <= 1) cells = patch(0.0f);
+    if (f >= kRevisit) cells = patch(0.3f);
+    test::tile(cells, {40.0f, -1.0f, 10.0f}, kZ, kY, 2.0f, 2.0f, 1.0f, 0.0f, 9);
+    return cells;
+  }
+  static MapConfig config() {
+    MapConfig c;
+    c.max_range_m = 100.0;
+    c.max_depth_sigma_m = 0.0;
+    c.consolidate_after_frames = 0;
+    c.dormant_after_frames = 5;
+    return c;
+  }
+};
+
+TEST(Dormancy, AQuietSurfaceDropsItsDetailAndIsWokenWhenSeenAgain) {
+  GlobalMap map(QuietPatch::config()), resumed(QuietPatch::config());
+  std::uint32_t patch = kNoSurface;
+  Surface before;
+  for (std::uint64_t f = 0; f <= QuietPatch::kRevisit; ++f) {
+    if (f == 7) {  // restored from what a store holds after frame 6 (the patch dormant)
+      std::vector<MapCell> cells;
+      std::vector<Surface> surfaces;
+      for (const auto& [id, c] : map.cells()) cells.push_back(c);
+      for (const auto& [id, sf] : map.surfaces()) surfaces.push_back(sf);
+      resumed = GlobalMap::restore(QuietPatch::config(), cells, surfaces, map.next_cell_id(),
+                                   map.next_surface_id(), 6);
+    }
+    const std::size_t bytes = map.map_bytes();
+    const auto report = map.integrate(f, Pose::Identity(), QuietPatch::frame(f));
+    if (f >= 7) resumed.integrate(f, Pose::Identity(), QuietPatch::frame(f));
+    if (f == 0) patch = report.cell_surfaces[0];
+    ASSERT_NE(map.surface(patch), nullptr) << "frame " << f;
+    const Surface& s = *map.surface(patch);
+    if (f == 1) {
+      ASSERT_EQ(s.last_observed_frame, 1u);
+      ASSERT_TRUE(s.detail.has_value());
+      before = s;
+    }
+    if (f < 6) {
+      EXPECT_TRUE(report.dormant_surfaces.empty()) << "frame " << f;
+      EXPECT_TRUE(s.detail.has_value()) << "frame " << f;
+    } else if (f == 6) {
+      // Last observed in frame 1: dormant five frames later, its descriptor as it was.
+      EXPECT_EQ(report.dormant_surfaces, (std::vector<std::uint32_t>{patch}));
+      EXPECT_TRUE(std::find(report.updated_surfaces.begin(), report.updated_surfaces.end(), patch) ==
+                  report.updated_surfaces.end());
+      EXPECT_FALSE(s.detail.has_value());
+      Surface expected = before;
+      expected.detail.reset();
+      EXPECT_TRUE(same_surface(s, expected));
+      EXPECT_EQ(bytes - map.map_bytes(),
+                sizeof(SurfaceDetail) + before.detail->footprint.bytes() +
+                    sizeof(std::pair<std::uint64_t, std::uint32_t>));  // and its clock entry
+      // Queries do not need the detail: the ground under the patch is found through its cells.
+      const auto ground = map.ground_under({1.0, 0.0, 11.0});
+      ASSERT_TRUE(ground.has_value());
+      EXPECT_EQ(ground->surface_id, patch);
+      EXPECT_NEAR(ground->height_above_m, 1.5, 1e-5);
+      // Its detail on demand is rebuilt from its four cells: the 2 m × 2 m footprint (10 cm bits
+      // whose centres lie inside) and moments of the same weight on the patch's plane.
+      const SurfaceDetail rebuilt = map.surface_detail(patch);
+      EXPECT_NEAR(rebuilt.footprint.area_m2(), 4.0, 0.45);
+      PlaneMoments moments;
+      moments.weight = s.information;
+      moments.sum = rebuilt.moment_sum;
+      moments.sum_outer = rebuilt.moment_outer;
+      EXPECT_NEAR(moments.rms_distance_m(s.plane), 0.0, 1e-5);
+      EXPECT_NEAR((moments.sum / moments.weight - Eigen::Vector3d(1.0, 1.5, 11.0)).norm(), 0.0, 1e-5);
+    } else if (f < QuietPatch::kRevisit) {
+      EXPECT_FALSE(s.detail.has_value()) << "frame " << f;
+    } else {
+      // Seen again: woken, the re-observation fused into it (no new surface, no new cell).
+      EXPECT_TRUE(s.detail.has_value());
+      EXPECT_EQ(s.last_observed_frame, QuietPatch::kRevisit);
+      EXPECT_EQ(s.observations, before.observations + 4);
+      EXPECT_EQ(s.cells, before.cells);
+      EXPECT_EQ(map.surfaces().size(), 2u);
+      EXPECT_TRUE(std::find(report.updated_surfaces.begin(), report.updated_surfaces.end(), patch) !=
+                  report.updated_surfaces.end());
+      // The footprint rebuilt from the four cells, and the shifted view's bits added to it.
+      EXPECT_GT(s.detail->footprint.area_m2(), 4.0 - 0.45);
+      EXPECT_LT(s.detail->footprint.area_m2(), 2.3 * 2.3 + 0.5);
+    }
+  }
+  // Restored while the patch slept, the map wakes it the same way.
+  EXPECT_TRUE(map.same_content(resumed));
+}
+
+TEST(Dormancy, NeverWhenOffAndNotBeforeConsolidation) {
+  MapConfig off = QuietPatch::config();
+  off.dormant_after_frames = 0;
+  GlobalMap map(off);
+  for (std::uint64_t f = 0; f < QuietPatch::kRevisit; ++f)
+    EXPECT_TRUE(map.integrate(f, Pose::Identity(), QuietPatch::frame(f)).dormant_surfaces.empty());
+  for (const auto& [id, s] : map.surfaces()) EXPECT_TRUE(s.detail.has_value());
+  MapConfig early;
+  early.consolidate_after_frames = 30;
+  early.dormant_after_frames = 29;
+  EXPECT_CONTAINS(test::error_of<ConfigError>([&] { GlobalMap{early}; }),
+                  "map.dormant_after_frames (29) must be >= map.consolidate_after_frames (30)");
+  early.dormant_after_frames = -1;
+  EXPECT_THROW(GlobalMap{early}, ConfigError);
+  early.dormant_after_frames = 30;
+  EXPECT_NO_THROW(GlobalMap{early});
+}
+
 /// Bridging over an occlusion gap: a wall at z = 10 seen in two segments, x ∈ [−4, −2] (frame 0)
 /// and x ∈ [1, 3] (frame 1), each 2 × 2 tiles of 1 m (four observations: mature), 3 m apart.
 /// Optionally a back wall at z = 14 (colour bin 5) seen through the gap, and the second segment
@@ -567,7 +687,7 @@ TEST(Consolidation, OldCellsOfARoadBecomeFewerCellsCoveringTheSameRoad) {
   const Surface& road = *map.surface(map.cells().begin()->second.surface);
   auto square_of = [&](const MapCell& cell) {
     const Eigen::Vector2d st =
-        road.basis.to_2d(vertex_centroid(cell.vertices_m)) / config.consolidate_tile_m;
+        road.detail->basis.to_2d(vertex_centroid(cell.vertices_m)) / config.consolidate_tile_m;
     return std::pair(std::floor(st.x()), std::floor(st.y()));
   };
   std::set<std::pair<double, double>> young_squares;

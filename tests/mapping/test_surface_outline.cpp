@@ -18,14 +18,19 @@ std::vector<Eigen::Vector2d> rectangle(double s0, double t0, double s1, double t
   return {{s0, t0}, {s0, t1}, {s1, t1}, {s1, t0}};
 }
 
-/// A surface on the plane z = 0 with the basis make_basis builds there from the origin
-/// (u = x, v = y) and an empty 10 cm footprint.
-Surface flat_surface() {
-  Surface s;
+/// A surface's plane and detail: the plane z = 0, the basis make_basis builds there from the
+/// origin (u = x, v = y) and an empty 10 cm footprint.
+struct FlatSurface {
+  Plane3 plane;
+  SurfaceDetail detail;
+};
+
+FlatSurface flat_surface() {
+  FlatSurface s;
   s.plane.normal = Eigen::Vector3d::UnitZ();
   s.plane.offset = 0.0;
-  s.basis = make_basis(s.plane, Eigen::Vector3d::Zero());
-  s.footprint = Footprint(0.1);
+  s.detail.basis = make_basis(s.plane, Eigen::Vector3d::Zero());
+  s.detail.footprint = Footprint(0.1);
   return s;
 }
 
@@ -44,11 +49,11 @@ bool ring_has_corners(const OutlineRing& ring, std::vector<Eigen::Vector2d> corn
 }
 
 TEST(SurfaceOutline, ASquareIsOneRingThroughItsCorners) {
-  Surface s = flat_surface();
-  ASSERT_NEAR(s.basis.u.x(), 1.0, 1e-12);  // the basis this test's corners are written in
-  ASSERT_NEAR(s.basis.v.y(), 1.0, 1e-12);
-  s.footprint.add_polygon(rectangle(0.0, 0.0, 1.0, 1.0));  // 10 × 10 bits
-  const auto outline = surface_outline(s, 0.0);
+  FlatSurface s = flat_surface();
+  ASSERT_NEAR(s.detail.basis.u.x(), 1.0, 1e-12);  // the basis this test's corners are written in
+  ASSERT_NEAR(s.detail.basis.v.y(), 1.0, 1e-12);
+  s.detail.footprint.add_polygon(rectangle(0.0, 0.0, 1.0, 1.0));  // 10 × 10 bits
+  const auto outline = surface_outline(s.plane, s.detail, 0.0);
   ASSERT_EQ(outline.size(), 1u);
   EXPECT_FALSE(outline[0].hole);
   EXPECT_TRUE(ring_has_corners(outline[0], {{0, 0}, {1, 0}, {1, 1}, {0, 1}}));
@@ -56,24 +61,24 @@ TEST(SurfaceOutline, ASquareIsOneRingThroughItsCorners) {
 }
 
 TEST(SurfaceOutline, ARectangleAcrossTileSeamsAndNegativeCoordinatesKeepsItsFourCorners) {
-  Surface s = flat_surface();
+  FlatSurface s = flat_surface();
   // 32 bits per tile: −1.6 … 1.6 m spans tiles −1 and 0 along s, −0.3 … 0.5 along t as well.
-  s.footprint.add_polygon(rectangle(-1.6, -0.3, 1.6, 0.5));
-  const auto outline = surface_outline(s, 0.0);
+  s.detail.footprint.add_polygon(rectangle(-1.6, -0.3, 1.6, 0.5));
+  const auto outline = surface_outline(s.plane, s.detail, 0.0);
   ASSERT_EQ(outline.size(), 1u);
   EXPECT_TRUE(ring_has_corners(outline[0], {{-1.6, -0.3}, {1.6, -0.3}, {1.6, 0.5}, {-1.6, 0.5}}));
   EXPECT_NEAR(polygon_area_m2(outline[0].vertices_m), 3.2 * 0.8, 1e-9);
 }
 
 TEST(SurfaceOutline, AnAnnulusIsAnOuterRingFollowedByItsHole) {
-  Surface s = flat_surface();
+  FlatSurface s = flat_surface();
   // A 2 m square with a 1 m square hole in its middle, as four strips.
-  s.footprint.add_polygon(rectangle(0.0, 0.0, 2.0, 0.5));
-  s.footprint.add_polygon(rectangle(0.0, 1.5, 2.0, 2.0));
-  s.footprint.add_polygon(rectangle(0.0, 0.5, 0.5, 1.5));
-  s.footprint.add_polygon(rectangle(1.5, 0.5, 2.0, 1.5));
-  ASSERT_NEAR(s.footprint.area_m2(), 3.0, 1e-9);
-  const auto outline = surface_outline(s, 0.0);
+  s.detail.footprint.add_polygon(rectangle(0.0, 0.0, 2.0, 0.5));
+  s.detail.footprint.add_polygon(rectangle(0.0, 1.5, 2.0, 2.0));
+  s.detail.footprint.add_polygon(rectangle(0.0, 0.5, 0.5, 1.5));
+  s.detail.footprint.add_polygon(rectangle(1.5, 0.5, 2.0, 1.5));
+  ASSERT_NEAR(s.detail.footprint.area_m2(), 3.0, 1e-9);
+  const auto outline = surface_outline(s.plane, s.detail, 0.0);
   ASSERT_EQ(outline.size(), 2u);
   EXPECT_FALSE(outline[0].hole);
   EXPECT_TRUE(ring_has_corners(outline[0], {{0, 0}, {2, 0}, {2, 2}, {0, 2}}));
@@ -84,22 +89,22 @@ TEST(SurfaceOutline, AnAnnulusIsAnOuterRingFollowedByItsHole) {
 }
 
 TEST(SurfaceOutline, SimplificationKeepsASubsetOfCornersWithinTheTolerance) {
-  Surface s = flat_surface();
+  FlatSurface s = flat_surface();
   std::vector<Eigen::Vector2d> disc;  // radius 1 m, 64 sides
   for (int k = 0; k < 64; ++k) {
     const double a = 2.0 * std::numbers::pi * k / 64.0;
     disc.emplace_back(std::cos(a), std::sin(a));
   }
-  s.footprint.add_polygon(disc);
-  const auto exact = surface_outline(s, 0.0);
-  const auto simple = surface_outline(s, 0.1);
+  s.detail.footprint.add_polygon(disc);
+  const auto exact = surface_outline(s.plane, s.detail, 0.0);
+  const auto simple = surface_outline(s.plane, s.detail, 0.1);
   ASSERT_EQ(exact.size(), 1u);
   ASSERT_EQ(simple.size(), 1u);
   // Unsimplified: the bits' staircase, enclosing exactly the covered bits. Every vertex is a bit
   // corner (a multiple of 0.1 m), every edge runs along s or t, and consecutive edges turn by 90°
   // (no collinear vertex is left).
   const auto& stairs = exact[0].vertices_m;
-  EXPECT_NEAR(polygon_area_m2(stairs), s.footprint.area_m2(), 1e-9);
+  EXPECT_NEAR(polygon_area_m2(stairs), s.detail.footprint.area_m2(), 1e-9);
   for (std::size_t k = 0; k < stairs.size(); ++k) {
     const Eigen::Vector3d& v = stairs[k];
     EXPECT_NEAR(v.x() * 10.0, std::round(v.x() * 10.0), 1e-6);
@@ -121,19 +126,19 @@ TEST(SurfaceOutline, SimplificationKeepsASubsetOfCornersWithinTheTolerance) {
 }
 
 TEST(SurfaceOutline, AStripNarrowerThanTheToleranceKeepsItsCorners) {
-  Surface s = flat_surface();
-  s.footprint.add_polygon(rectangle(0.0, 0.0, 3.0, 0.1));  // one bit wide
-  const auto outline = surface_outline(s, 0.5);
+  FlatSurface s = flat_surface();
+  s.detail.footprint.add_polygon(rectangle(0.0, 0.0, 3.0, 0.1));  // one bit wide
+  const auto outline = surface_outline(s.plane, s.detail, 0.5);
   ASSERT_EQ(outline.size(), 1u);
   EXPECT_TRUE(ring_has_corners(outline[0], {{0, 0}, {3, 0}, {3, 0.1}, {0, 0.1}}));
 }
 
 TEST(SurfaceOutline, RingsLieOnTheSurfacesCurrentPlane) {
-  Surface s = flat_surface();
-  s.footprint.add_polygon(rectangle(0.0, 0.0, 1.0, 1.0));
+  FlatSurface s = flat_surface();
+  s.detail.footprint.add_polygon(rectangle(0.0, 0.0, 1.0, 1.0));
   // The plane moved up by 0.5 m since the basis was made: same corners, at z = 0.5.
   s.plane.offset = -0.5;
-  auto outline = surface_outline(s, 0.0);
+  auto outline = surface_outline(s.plane, s.detail, 0.0);
   ASSERT_EQ(outline.size(), 1u);
   for (const auto& v : outline[0].vertices_m) EXPECT_NEAR(v.z(), 0.5, 1e-12);
   EXPECT_NEAR(polygon_area_m2(outline[0].vertices_m), 1.0, 1e-9);
@@ -142,18 +147,18 @@ TEST(SurfaceOutline, RingsLieOnTheSurfacesCurrentPlane) {
   const double a = std::numbers::pi / 3.0;
   s.plane.normal = Eigen::Vector3d(0.0, std::sin(a), std::cos(a));
   s.plane.offset = 0.0;
-  outline = surface_outline(s, 0.0);
+  outline = surface_outline(s.plane, s.detail, 0.0);
   ASSERT_EQ(outline.size(), 1u);
   for (const auto& v : outline[0].vertices_m) EXPECT_NEAR(s.plane.signed_distance(v), 0.0, 1e-12);
   EXPECT_NEAR(polygon_area_m2(outline[0].vertices_m), 0.5, 1e-9);
 }
 
 TEST(SurfaceOutline, EmptyFootprintAndBadTolerance) {
-  Surface s = flat_surface();
-  EXPECT_TRUE(surface_outline(s, 0.1).empty());
-  s.footprint.add_polygon(rectangle(0.0, 0.0, 1.0, 1.0));
-  EXPECT_CONTAINS(test::input_error_of([&] { surface_outline(s, -0.1); }), "tolerance");
-  EXPECT_CONTAINS(test::input_error_of([&] { surface_outline(s, std::nan("")); }), "tolerance");
+  FlatSurface s = flat_surface();
+  EXPECT_TRUE(surface_outline(s.plane, s.detail, 0.1).empty());
+  s.detail.footprint.add_polygon(rectangle(0.0, 0.0, 1.0, 1.0));
+  EXPECT_CONTAINS(test::input_error_of([&] { surface_outline(s.plane, s.detail, -0.1); }), "tolerance");
+  EXPECT_CONTAINS(test::input_error_of([&] { surface_outline(s.plane, s.detail, std::nan("")); }), "tolerance");
 }
 
 }  // namespace
