@@ -142,7 +142,7 @@ std::vector<std::uint8_t> encode_surface_legacy(const map::Surface& s, int versi
   w.put(s.information);
   w.put_matrix(d.moment_sum);
   w.put_matrix(d.moment_outer);
-  for (std::uint16_t h : s.histogram) w.put(h);
+  for (std::uint16_t h : s.histogram.bins()) w.put(h);
   if (v6) {
     reals({s.histogram_weight_m2, s.observed_area_m2, s.area_m2});
     w.put_matrix(s.mean_rgb);
@@ -184,7 +184,9 @@ map::Surface decode_surface_legacy(std::uint32_t id, const void* data, std::size
   s.information = r.get<double>();
   r.get_matrix(d.moment_sum);
   r.get_matrix(d.moment_outer);
-  for (std::uint16_t& h : s.histogram) h = r.get<std::uint16_t>();
+  map::CompactHistogram::Bins bins{};
+  for (std::uint16_t& h : bins) h = r.get<std::uint16_t>();
+  s.histogram = map::CompactHistogram(bins);
   if (v6) {
     std::array<double, 3> areas{};
     get_reals(r, areas);
@@ -224,18 +226,13 @@ map::Surface decode_surface_legacy(std::uint32_t id, const void* data, std::size
 /// as a double; the histogram as a 64-bit mask of its non-zero bins and those bins' u16 values;
 /// counts, the last observed frame and the cell ids as varints (the ids as zigzag differences
 /// from the previous one); then a flag byte: 1 and the detail (moment sums as 12 doubles, basis,
-/// footprint) for a live surface, 0 for a dormant one.
+/// footprint) for a live surface, 0 and its quiet moments (9 floats) for a dormant one.
 std::vector<std::uint8_t> encode_surface_v7(const map::Surface& s) {
-  static_assert(std::tuple_size_v<map::CompactHistogram> == 64, "the mask holds one bit per bin");
   Writer w;
   put_reals(w, std::array{s.plane.normal.x(), s.plane.normal.y(), s.plane.normal.z(), s.plane.offset});
   w.put(s.information);
-  std::uint64_t mask = 0;
-  for (std::size_t q = 0; q < s.histogram.size(); ++q)
-    if (s.histogram[q] != 0) mask |= std::uint64_t{1} << q;
-  w.put(mask);
-  for (std::uint16_t h : s.histogram)
-    if (h != 0) w.put(h);
+  w.put(s.histogram.mask());
+  for (std::uint16_t h : s.histogram.nonzero()) w.put(h);
   put_reals(w, std::array{s.histogram_weight_m2, s.observed_area_m2, s.area_m2});
   w.put_matrix(s.mean_rgb);
   put_reals(w, std::array{s.bounds.min.x(), s.bounds.min.y(), s.bounds.min.z(), s.bounds.max.x(),
@@ -255,6 +252,9 @@ std::vector<std::uint8_t> encode_surface_v7(const map::Surface& s) {
     w.put_matrix(d.moment_outer);
     put_basis(w, d.basis);
     put_footprint(w, d.footprint, true);
+  } else {
+    w.put_matrix(s.quiet_moments.mean);
+    for (float c : s.quiet_moments.covariance) w.put(c);
   }
   return std::move(w.bytes);
 }
@@ -270,8 +270,15 @@ map::Surface decode_surface_v7(std::uint32_t id, const void* data, std::size_t s
   s.plane.offset = plane[3];
   s.information = r.get<double>();
   const auto mask = r.get<std::uint64_t>();
-  for (std::size_t q = 0; q < s.histogram.size(); ++q)
-    s.histogram[q] = (mask >> q) & 1 ? r.get<std::uint16_t>() : std::uint16_t{0};
+  map::CompactHistogram::Bins bins{};
+  for (std::size_t q = 0; q < bins.size(); ++q)
+    if ((mask >> q) & 1) {
+      bins[q] = r.get<std::uint16_t>();
+      if (bins[q] == 0)
+        throw StorageError(r.what() + ": histogram bin " + std::to_string(q) +
+                           " is marked non-zero but holds 0");
+    }
+  s.histogram = map::CompactHistogram(bins);
   std::array<double, 3> areas{};
   get_reals(r, areas);
   s.histogram_weight_m2 = areas[0], s.observed_area_m2 = areas[1], s.area_m2 = areas[2];
@@ -302,6 +309,9 @@ map::Surface decode_surface_v7(std::uint32_t id, const void* data, std::size_t s
     r.get_matrix(d.moment_outer);
     get_basis(r, d.basis);
     d.footprint = get_footprint(r, size, true);
+  } else {
+    r.get_matrix(s.quiet_moments.mean);
+    for (float& c : s.quiet_moments.covariance) c = r.get<float>();
   }
   r.expect_end();
   return s;

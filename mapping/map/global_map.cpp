@@ -39,19 +39,6 @@ std::string cell_problem(const Plane3& plane, std::span<const Eigen::Vector3f> v
 
 }  // namespace
 
-CompactHistogram compact(const ColourHistogram& histogram) {
-  CompactHistogram out;
-  for (std::size_t q = 0; q < out.size(); ++q)
-    out[q] = static_cast<std::uint16_t>(std::lround(std::clamp(histogram[q], 0.0f, 1.0f) * 65535.0f));
-  return out;
-}
-
-ColourHistogram expand(const CompactHistogram& histogram) {
-  ColourHistogram out;
-  for (std::size_t q = 0; q < out.size(); ++q) out[q] = static_cast<float>(histogram[q]) / 65535.0f;
-  return out;
-}
-
 namespace {
 
 /// A surface's footprint basis on `plane` around `centre`: its origin half a footprint tile back
@@ -66,13 +53,36 @@ PlaneBasis tile_centred_basis(const Plane3& plane, const Eigen::Vector3d& centre
 
 }  // namespace
 
+QuietMoments quiet_moments_of(const PlaneMoments& moments) {
+  QuietMoments q;
+  if (!(moments.weight > 0.0)) return q;
+  const Eigen::Vector3d mean = moments.sum / moments.weight;
+  const Eigen::Matrix3d covariance = moments.sum_outer / moments.weight - mean * mean.transpose();
+  q.mean = mean.cast<float>();
+  q.covariance = {static_cast<float>(covariance(0, 0)), static_cast<float>(covariance(0, 1)),
+                  static_cast<float>(covariance(0, 2)), static_cast<float>(covariance(1, 1)),
+                  static_cast<float>(covariance(1, 2)), static_cast<float>(covariance(2, 2))};
+  return q;
+}
+
+PlaneMoments moments_from(const QuietMoments& quiet, double weight) {
+  PlaneMoments m;
+  m.weight = weight;
+  const Eigen::Vector3d mean = quiet.mean.cast<double>();
+  const auto& c = quiet.covariance;
+  Eigen::Matrix3d covariance;
+  covariance << c[0], c[1], c[2], c[1], c[3], c[4], c[2], c[4], c[5];
+  m.sum = weight * mean;
+  m.sum_outer = weight * (covariance + mean * mean.transpose());
+  return m;
+}
+
 PlaneMoments moments_of(const Surface& surface) {
+  if (!surface.detail) return moments_from(surface.quiet_moments, surface.information);
   PlaneMoments m;
   m.weight = surface.information;
-  if (surface.detail) {
-    m.sum = surface.detail->moment_sum;
-    m.sum_outer = surface.detail->moment_outer;
-  }
+  m.sum = surface.detail->moment_sum;
+  m.sum_outer = surface.detail->moment_outer;
   return m;
 }
 
@@ -84,29 +94,19 @@ void set_moments(Surface& surface, const PlaneMoments& moments) {
   surface.detail->moment_outer = moments.sum_outer;
 }
 
-SurfaceDetail surface_detail_from_cells(const Plane3& plane, double information,
-                                        std::span<const MapCell* const> cells,
-                                        double resolution_m) {
+SurfaceDetail rebuild_detail(const Surface& surface, std::span<const MapCell* const> cells,
+                             double resolution_m) {
   SurfaceDetail detail;
+  const PlaneMoments moments = moments_of(surface);
+  detail.moment_sum = moments.sum;
+  detail.moment_outer = moments.sum_outer;
+  const Plane3& plane = surface.plane;
   const Eigen::Vector3d centre = cells.empty() ? Eigen::Vector3d(-plane.offset * plane.normal)
                                                : vertex_centroid(cells.front()->vertices_m);
   detail.basis = tile_centred_basis(plane, centre, resolution_m);
   detail.footprint = Footprint(resolution_m);
-  double area_sum = 0.0;
-  std::vector<double> areas;
-  areas.reserve(cells.size());
-  for (const MapCell* cell : cells) {
+  for (const MapCell* cell : cells)
     detail.footprint.add_polygon(project_to_basis(cell->vertices_m, detail.basis));
-    areas.push_back(polygon_area_m2(cell->vertices_m));
-    area_sum += areas.back();
-  }
-  if (area_sum > 0.0) {
-    PlaneMoments moments;
-    for (std::size_t i = 0; i < cells.size(); ++i)
-      moments.add_polygon(cells[i]->vertices_m, information * areas[i] / area_sum);
-    detail.moment_sum = moments.sum;
-    detail.moment_outer = moments.sum_outer;
-  }
   return detail;
 }
 
@@ -255,7 +255,7 @@ bool same_surface(const Surface& a, const Surface& b) {
          a.histogram == b.histogram && a.histogram_weight_m2 == b.histogram_weight_m2 &&
          a.mean_rgb == b.mean_rgb && a.observed_area_m2 == b.observed_area_m2 &&
          a.area_m2 == b.area_m2 && a.bounds == b.bounds && a.cells == b.cells &&
-         a.detail == b.detail;
+         a.detail == b.detail && a.quiet_moments == b.quiet_moments;
 }
 
 std::vector<std::uint32_t> GlobalMap::cells_near(const Aabb& box) const { return query_cells(box); }
@@ -462,10 +462,11 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
       auto& candidates = covering_surfaces[k];
       if (std::find(candidates.begin(), candidates.end(), old.surface) != candidates.end())
         continue;
-      if (surface.detail && !surface.detail->footprint.empty() &&
-          effective_sigma_m(surface.information, surface.observed_area_m2) <= max_surface_sigma &&
-          nearly_coplanar(surface.plane, cell.plane, cell.vertices_m, angle_deg, surface_tol))
-        candidates.push_back(old.surface);
+      if (effective_sigma_m(surface.information, surface.observed_area_m2) <= max_surface_sigma &&
+          nearly_coplanar(surface.plane, cell.plane, cell.vertices_m, angle_deg, surface_tol)) {
+        wake(surfaces_.at(old.surface));  // a dormant surface covers with its rebuilt footprint
+        if (!surface.detail->footprint.empty()) candidates.push_back(old.surface);
+      }
     }
   }
 
@@ -726,7 +727,7 @@ MapBytes GlobalMap::map_bytes_by_part() const {
   for (const auto& [id, cell] : cells_) bytes.vertices += cell.vertices_m.capacity() * sizeof(Eigen::Vector3f);
   bytes.surfaces += dormancy_clock_.size() * sizeof(std::pair<std::uint64_t, std::uint32_t>);
   for (const auto& [id, surface] : surfaces_) {
-    bytes.surfaces += surface.cells.capacity() * sizeof(std::uint32_t);
+    bytes.surfaces += surface.cells.capacity() * sizeof(std::uint32_t) + surface.histogram.bytes();
     if (surface.detail) {
       bytes.surfaces += sizeof(SurfaceDetail);
       bytes.footprints += surface.detail->footprint.bytes();
@@ -915,8 +916,8 @@ void GlobalMap::wake(Surface& surface) {
   std::vector<const MapCell*> cells;
   cells.reserve(surface.cells.size());
   for (std::uint32_t id : surface.cells) cells.push_back(&cells_.at(id));
-  surface.detail.emplace(surface_detail_from_cells(surface.plane, surface.information, cells,
-                                                   config_.footprint_resolution_m));
+  surface.detail.emplace(rebuild_detail(surface, cells, config_.footprint_resolution_m));
+  surface.quiet_moments = {};
   if (config_.dormant_after_frames > 0) dormancy_clock_.emplace(surface.last_observed_frame, surface.id);
 }
 
@@ -933,6 +934,7 @@ void GlobalMap::retire_quiet_surfaces(std::uint64_t frame_id, MergeReport& repor
       dormancy_clock_.emplace(surface.last_observed_frame, id);
       continue;
     }
+    surface.quiet_moments = quiet_moments_of(moments_of(surface));
     surface.detail.reset();
     report.dormant_surfaces.push_back(id);
   }
@@ -945,8 +947,7 @@ SurfaceDetail GlobalMap::surface_detail(std::uint32_t id) const {
   if (surface->detail) return *surface->detail;
   std::vector<const MapCell*> cells;
   for (std::uint32_t cell_id : surface->cells) cells.push_back(&cells_.at(cell_id));
-  return surface_detail_from_cells(surface->plane, surface->information, cells,
-                                   config_.footprint_resolution_m);
+  return rebuild_detail(*surface, cells, config_.footprint_resolution_m);
 }
 
 bool GlobalMap::same_content(const GlobalMap& other) const {

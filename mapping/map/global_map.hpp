@@ -17,6 +17,7 @@
 #include "core/config/map_config.hpp"
 #include "core/planecell.hpp"
 #include "core/pose.hpp"
+#include "mapping/map/compact_histogram.hpp"
 #include "mapping/map/crf_merger.hpp"
 #include "mapping/map/footprint.hpp"
 #include "mapping/map/geometry.hpp"
@@ -26,20 +27,11 @@
 
 namespace planecell::map {
 
-/// A colour histogram kept at 16 bits per bin: bin q holds round(h_q · 65535) of a histogram h
-/// normalised to sum 1 (half the bytes of ColourHistogram; error ≤ 2⁻¹⁷ per bin).
-using CompactHistogram = std::array<std::uint16_t, kColourHistogramBins>;
-
-/// h_q → round(clamp(h_q, 0, 1) · 65535).
-CompactHistogram compact(const ColourHistogram& histogram);
-/// q → q / 65535.
-ColourHistogram expand(const CompactHistogram& histogram);
-
 /// What the map keeps of a surface only while observations keep reaching it
-/// (MapConfig::dormant_after_frames): the moments behind its plane (but their weight, which the
-/// surface keeps: Surface::information) and its footprint in its 2D basis. A surface no
-/// observation has reached for that long drops it (it is dormant); when new cells come near it
-/// again, the map rebuilds it from the surface's stored cells (surface_detail_from_cells).
+/// (MapConfig::dormant_after_frames): the moments behind its plane in double (their weight is
+/// Surface::information) and its footprint in its 2D basis. A surface no observation has reached
+/// for that long drops it (it is dormant) and keeps its moments as QuietMoments; when new cells
+/// come near it again, the map rebuilds the detail (rebuild_detail).
 struct SurfaceDetail {
   Eigen::Vector3d moment_sum = Eigen::Vector3d::Zero();        ///< PlaneMoments::sum
   Eigen::Matrix3d moment_outer = Eigen::Matrix3d::Zero();      ///< PlaneMoments::sum_outer
@@ -47,6 +39,21 @@ struct SurfaceDetail {
   Footprint footprint;  ///< cells' union in `basis` (occupancy bits)
   bool operator==(const SurfaceDetail&) const = default;
 };
+
+/// A dormant surface's plane moments at float precision, centred: the mean p̄ = Σ w p / Σ w and
+/// the upper triangle (xx, xy, xz, yy, yz, zz) of the covariance C = Σ w p pᵀ / Σ w − p̄ p̄ᵀ.
+/// With the weight W = Σ w they give the moments back: Σ w p = W p̄, Σ w p pᵀ = W (C + p̄ p̄ᵀ)
+/// (float: 0.06 mm at 1 km for p̄; the plane fit works on C, not on the large p̄ p̄ᵀ terms).
+struct QuietMoments {
+  Eigen::Vector3f mean = Eigen::Vector3f::Zero();
+  std::array<float, 6> covariance{};
+  bool operator==(const QuietMoments&) const = default;
+};
+
+/// `moments` centred at float precision (zero for zero weight).
+QuietMoments quiet_moments_of(const PlaneMoments& moments);
+/// The moments of weight `weight` that `quiet` summarises.
+PlaneMoments moments_from(const QuietMoments& quiet, double weight);
 
 /// A surface: coplanar cells sharing one CRF label.
 struct Surface {
@@ -59,7 +66,7 @@ struct Surface {
   /// Σ w of the moments behind `plane` (w = area / σ² per observation): the surface's
   /// information, kept when it is dormant (σ_eff and the rebuilt moments need it).
   double information = 0.0;
-  CompactHistogram histogram{};  ///< area-weighted mean of the integrated cells' histograms
+  CompactHistogram histogram;  ///< area-weighted mean of the integrated cells' histograms
   double histogram_weight_m2 = 0.0;
   Eigen::Vector3f mean_rgb = Eigen::Vector3f::Zero();  ///< area-weighted mean colour (0..255 RGB)
   double observed_area_m2 = 0.0;  ///< Σ area of every integrated cell, fused ones included
@@ -69,24 +76,23 @@ struct Surface {
   Aabb bounds;                    ///< bounds of every integrated cell's vertices
   std::vector<std::uint32_t> cells;  ///< stored member cells (map cell ids)
   HeapOptional<SurfaceDetail> detail;  ///< empty while the surface is dormant
+  QuietMoments quiet_moments;  ///< a dormant surface's moments; zero while it is live
 };
 
-/// The surface's plane moments {information, moment_sum, moment_outer}; those of a dormant
-/// surface have its weight and no points (sum and outer products zero).
+/// The surface's plane moments: {information, moment_sum, moment_outer} while it is live, from
+/// its quiet moments while it is dormant.
 PlaneMoments moments_of(const Surface& surface);
 /// Stores `moments` in a live surface (information and detail); throws std::logic_error when the
 /// surface is dormant.
 void set_moments(Surface& surface, const PlaneMoments& moments);
 
-/// The detail of a surface on `plane` with information `information` holding `cells`, rebuilt
-/// from them: its basis on the plane around the first cell's vertex centroid (the tile layout of
-/// a new surface), its footprint their polygons rasterised at resolution_m, and moments of
-/// weight `information` spread over the cells' vertices by area (Σ_i w_i = information,
-/// w_i ∝ area_i). The observations fused without being stored are not in it: after
-/// consolidation the stored cells cover them to within a footprint bit.
-SurfaceDetail surface_detail_from_cells(const Plane3& plane, double information,
-                                        std::span<const MapCell* const> cells,
-                                        double resolution_m);
+/// The detail of `surface`, rebuilt for a dormant surface from what it keeps: the moments from its
+/// quiet moments and information, its basis on its plane around the first of `cells`' vertex
+/// centroid (the tile layout of a new surface), its footprint the polygons of `cells` (its stored
+/// cells) rasterised at resolution_m. The observations fused without being stored are not in the
+/// footprint: after consolidation the stored cells cover them to within a footprint bit.
+SurfaceDetail rebuild_detail(const Surface& surface, std::span<const MapCell* const> cells,
+                             double resolution_m);
 
 /// True when every field of `a` and `b` is equal (GlobalMap::same_content compares surfaces so).
 bool same_surface(const Surface& a, const Surface& b);
@@ -201,8 +207,8 @@ class GlobalMap {
   std::uint32_t next_cell_id() const { return next_cell_id_; }
   std::uint32_t next_surface_id() const { return next_surface_id_; }
 
-  /// The detail of surface `id`: its own while it is live, rebuilt from its cells
-  /// (surface_detail_from_cells) while it is dormant. Throws InputError for an unknown id.
+  /// The detail of surface `id`: its own while it is live, rebuilt from its cells and quiet
+  /// moments (rebuild_detail) while it is dormant. Throws InputError for an unknown id.
   SurfaceDetail surface_detail(std::uint32_t id) const;
 
   /// Ids of stored cells whose bounds overlap `box` (sorted).

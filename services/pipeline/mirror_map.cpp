@@ -31,8 +31,7 @@ map::GlobalMap mirror_to_map(const io::MapMirror& mirror, const MapConfig& confi
     }
     if (surface.observed_area_m2 > 0.0) surface.mean_rgb /= static_cast<float>(surface.observed_area_m2);
     // Dormant (no detail: queries need the cells only); the area of the cells' union.
-    surface.area_m2 = map::surface_detail_from_cells(surface.plane, 0.0, cells, config.footprint_resolution_m)
-                          .footprint.area_m2();
+    surface.area_m2 = map::rebuild_detail(surface, cells, config.footprint_resolution_m).footprint.area_m2();
     surfaces.push_back(std::move(surface));
   }
   std::vector<map::MapCell> cells;

@@ -36,8 +36,9 @@ map::Surface awkward_surface() {
   map::SurfaceDetail& d = s.detail.emplace(map::SurfaceDetail{});
   d.moment_sum = vec();
   d.moment_outer << vec(), vec(), vec();
-  for (std::size_t q = 0; q < s.histogram.size(); ++q)
-    s.histogram[q] = static_cast<std::uint16_t>(q * q % 97);
+  map::CompactHistogram::Bins bins{};
+  for (std::size_t q = 0; q < bins.size(); ++q) bins[q] = static_cast<std::uint16_t>(q * q % 97);
+  s.histogram = map::CompactHistogram(bins);
   s.histogram_weight_m2 = std::abs(real(rng));
   s.mean_rgb = {10.5f, 20.25f, 200.0f};
   s.observed_area_m2 = std::abs(real(rng));
@@ -108,24 +109,29 @@ std::vector<std::uint8_t> deflate_blob(const std::vector<std::uint8_t>& raw) {
 TEST(MapCodecTest, DormantSurfaceKeepsItsDescriptorOnlyAndNeedsVersion7) {
   map::Surface live = rounded(awkward_surface());
   map::Surface dormant = live;
+  dormant.quiet_moments = map::quiet_moments_of(map::moments_of(live));
   dormant.detail.reset();
   const auto blob = map_codec::encode_surface(dormant);
   const map::Surface back = map_codec::decode_surface(dormant.id, blob.data(), blob.size(), "test");
   EXPECT_TRUE(map::same_surface(back, dormant));
   EXPECT_FALSE(back.detail.has_value());
-  // The detail is most of a surface's bytes: 12 moment doubles, the basis and a footprint tile.
+  EXPECT_EQ(back.quiet_moments, dormant.quiet_moments);
+  // The detail is most of a surface's bytes: 12 moment doubles, the basis and a footprint tile,
+  // against 9 floats of quiet moments.
   const auto live_raw = inflate_blob(map_codec::encode_surface(live));
   const auto dormant_raw = inflate_blob(blob);
   EXPECT_EQ(live_raw.size() - dormant_raw.size(),
             12 * sizeof(double) + (1 + 3 * 4) + (1 + 6 * 4) + sizeof(double) + 1 +
-                live.detail->footprint.tiles().size() * sizeof(map::FootprintTile));
+                live.detail->footprint.tiles().size() * sizeof(map::FootprintTile) -
+                9 * sizeof(float));
   // Versions before 7 had no dormant surfaces: refused, not written without its detail.
   EXPECT_CONTAINS(storage_error_of([&] { (void)map_codec::encode_surface(dormant, 6); }),
                   "surface 7 is dormant: store version 6 cannot hold it");
   // A flag byte other than 0 or 1 is named.
   auto bad_flag = dormant_raw;
-  ASSERT_EQ(bad_flag.back(), 0);
-  bad_flag.back() = 2;
+  const std::size_t flag_at = bad_flag.size() - 1 - 9 * sizeof(float);
+  ASSERT_EQ(bad_flag[flag_at], 0);
+  bad_flag[flag_at] = 2;
   const auto bad_blob = deflate_blob(bad_flag);
   EXPECT_CONTAINS(storage_error_of([&] {
                     (void)map_codec::decode_surface(7, bad_blob.data(), bad_blob.size(), "store");
@@ -136,13 +142,26 @@ TEST(MapCodecTest, DormantSurfaceKeepsItsDescriptorOnlyAndNeedsVersion7) {
 TEST(MapCodecTest, HistogramTakesTwoBytesPerNonZeroBin) {
   map::Surface s = rounded(awkward_surface());
   s.detail.reset();
-  s.histogram.fill(0);
+  s.histogram = map::CompactHistogram();
   const auto empty = inflate_blob(map_codec::encode_surface(s));
-  s.histogram[0] = 65535, s.histogram[17] = 1, s.histogram[63] = 300;
+  map::CompactHistogram::Bins bins{};
+  bins[0] = 65535, bins[17] = 1, bins[63] = 300;
+  s.histogram = map::CompactHistogram(bins);
   const auto blob = map_codec::encode_surface(s);
-  EXPECT_EQ(inflate_blob(blob).size(), empty.size() + 3 * sizeof(std::uint16_t));
+  const auto raw = inflate_blob(blob);
+  EXPECT_EQ(raw.size(), empty.size() + 3 * sizeof(std::uint16_t));
   const map::Surface back = map_codec::decode_surface(s.id, blob.data(), blob.size(), "test");
-  EXPECT_EQ(back.histogram, s.histogram);
+  EXPECT_EQ(back.histogram.bins(), bins);
+  // A bin the mask marks but that holds 0 is corrupt: named, not read as an empty bin. The mask
+  // follows the plane's real group (1 flag byte, 4 floats) and the information (a double).
+  auto zero_bin = raw;
+  const std::size_t first_value = 1 + 4 * sizeof(float) + sizeof(double) + sizeof(std::uint64_t);
+  zero_bin[first_value] = 0, zero_bin[first_value + 1] = 0;
+  const auto bad = deflate_blob(zero_bin);
+  EXPECT_CONTAINS(storage_error_of([&] {
+                    (void)map_codec::decode_surface(7, bad.data(), bad.size(), "store");
+                  }),
+                  "store: surface 7: histogram bin 0 is marked non-zero but holds 0");
 }
 
 /// At storage precision the plane, areas, bounds and basis (22 reals) go as floats: 88 bytes

@@ -181,6 +181,31 @@ TEST(GlobalMapTest, SurfaceHistogramsKeepSixteenBitsPerBin) {
   EXPECT_EQ(map.surfaces().begin()->second.histogram, compact(cell.histogram));
 }
 
+TEST(GlobalMapTest, SurfaceHistogramsKeepOnlyTheirNonZeroBins) {
+  CompactHistogram::Bins bins{};
+  bins[2] = 7, bins[40] = 65535, bins[63] = 1;
+  const CompactHistogram h(bins);
+  EXPECT_EQ(h.mask(), (std::uint64_t{1} << 2) | (std::uint64_t{1} << 40) | (std::uint64_t{1} << 63));
+  EXPECT_EQ(h.nonzero().size(), 3u);
+  EXPECT_EQ(h.bytes(), 3 * sizeof(std::uint16_t));
+  EXPECT_EQ(h[2], 7u);
+  EXPECT_EQ(h[40], 65535u);
+  EXPECT_EQ(h[63], 1u);
+  EXPECT_EQ(h[3], 0u);
+  EXPECT_EQ(h[64], 0u);  // not a bin
+  EXPECT_EQ(h.bins(), bins);
+  // Copies are deep and compare by value.
+  CompactHistogram copy = h;
+  EXPECT_EQ(copy, h);
+  bins[40] = 1;
+  copy = CompactHistogram(bins);
+  EXPECT_FALSE(copy == h);
+  EXPECT_EQ(h[40], 65535u);
+  EXPECT_EQ(CompactHistogram().bytes(), 0u);
+  EXPECT_EQ(CompactHistogram().bins(), CompactHistogram::Bins{});
+  EXPECT_EQ(CompactHistogram(CompactHistogram::Bins{}), CompactHistogram());
+}
+
 /// A new surface's footprint basis puts its first cell mid-tile: a 1 m cell (10 × 10 bits of
 /// 10 cm) fills one 32 × 32-bit tile, not the corners of four around the basis origin.
 TEST(GlobalMapTest, FirstCellOfASurfaceFillsOneFootprintTile) {
@@ -510,14 +535,17 @@ TEST(Dormancy, AQuietSurfaceDropsItsDetailAndIsWokenWhenSeenAgain) {
       EXPECT_TRUE(report.dormant_surfaces.empty()) << "frame " << f;
       EXPECT_TRUE(s.detail.has_value()) << "frame " << f;
     } else if (f == 6) {
-      // Last observed in frame 1: dormant five frames later, its descriptor as it was.
+      // Last observed in frame 1: dormant five frames later, its descriptor as it was and its
+      // moments kept at float precision.
       EXPECT_EQ(report.dormant_surfaces, (std::vector<std::uint32_t>{patch}));
       EXPECT_TRUE(std::find(report.updated_surfaces.begin(), report.updated_surfaces.end(), patch) ==
                   report.updated_surfaces.end());
       EXPECT_FALSE(s.detail.has_value());
       Surface expected = before;
+      expected.quiet_moments = quiet_moments_of(moments_of(before));
       expected.detail.reset();
       EXPECT_TRUE(same_surface(s, expected));
+      EXPECT_NE(s.quiet_moments, QuietMoments{});
       EXPECT_EQ(bytes - map.map_bytes(),
                 sizeof(SurfaceDetail) + before.detail->footprint.bytes() +
                     sizeof(std::pair<std::uint64_t, std::uint32_t>));  // and its clock entry
@@ -526,21 +554,20 @@ TEST(Dormancy, AQuietSurfaceDropsItsDetailAndIsWokenWhenSeenAgain) {
       ASSERT_TRUE(ground.has_value());
       EXPECT_EQ(ground->surface_id, patch);
       EXPECT_NEAR(ground->height_above_m, 1.5, 1e-5);
-      // Its detail on demand is rebuilt from its four cells: the 2 m × 2 m footprint (10 cm bits
-      // whose centres lie inside) and moments of the same weight on the patch's plane.
+      // Its detail on demand is rebuilt: the 2 m × 2 m footprint of its four cells (10 cm bits
+      // whose centres lie inside) and the moments it had, to float precision.
       const SurfaceDetail rebuilt = map.surface_detail(patch);
       EXPECT_NEAR(rebuilt.footprint.area_m2(), 4.0, 0.45);
-      PlaneMoments moments;
-      moments.weight = s.information;
-      moments.sum = rebuilt.moment_sum;
-      moments.sum_outer = rebuilt.moment_outer;
-      EXPECT_NEAR(moments.rms_distance_m(s.plane), 0.0, 1e-5);
-      EXPECT_NEAR((moments.sum / moments.weight - Eigen::Vector3d(1.0, 1.5, 11.0)).norm(), 0.0, 1e-5);
+      const PlaneMoments was = moments_of(before);
+      EXPECT_TRUE(rebuilt.moment_sum.isApprox(was.sum, 1e-6));
+      EXPECT_TRUE(rebuilt.moment_outer.isApprox(was.sum_outer, 1e-6));
+      EXPECT_NEAR((was.sum / was.weight - Eigen::Vector3d(1.0, 1.5, 11.0)).norm(), 0.0, 1e-5);
     } else if (f < QuietPatch::kRevisit) {
       EXPECT_FALSE(s.detail.has_value()) << "frame " << f;
     } else {
       // Seen again: woken, the re-observation fused into it (no new surface, no new cell).
       EXPECT_TRUE(s.detail.has_value());
+      EXPECT_EQ(s.quiet_moments, QuietMoments{});
       EXPECT_EQ(s.last_observed_frame, QuietPatch::kRevisit);
       EXPECT_EQ(s.observations, before.observations + 4);
       EXPECT_EQ(s.cells, before.cells);
