@@ -216,6 +216,9 @@ GlobalMap::GlobalMap(const MapConfig& config)
     throw ConfigError("map.neighbour_gap_m: must be >= 0, got " + std::to_string(config.neighbour_gap_m));
   if (!(config.bridge_gap_m >= 0.0))
     throw ConfigError("map.bridge_gap_m: must be >= 0 (0 = off), got " + std::to_string(config.bridge_gap_m));
+  if (!(config.bridge_min_area_m2 >= 0.0))
+    throw ConfigError("map.bridge_min_area_m2: must be >= 0 (0 = any), got " +
+                      std::to_string(config.bridge_min_area_m2));
   if (!(config.min_inlier_ratio >= 0.0 && config.min_inlier_ratio <= 1.0))
     throw ConfigError("map.min_inlier_ratio: must be in [0, 1] (0 = no gate), got " +
                       std::to_string(config.min_inlier_ratio));
@@ -682,7 +685,8 @@ void GlobalMap::bridge_surfaces(std::span<const Planecell* const> fresh, std::sp
       if (other_it == surfaces_.end()) continue;
       Surface& self = surfaces_.at(id);
       Surface& other = other_it->second;
-      if (other.observations < mature || std::abs(other.plane.normal.dot(self.plane.normal)) < min_cos) {
+      if (other.observations < mature || std::abs(other.plane.normal.dot(self.plane.normal)) < min_cos ||
+          std::max(self.area_m2, other.area_m2) < config_.bridge_min_area_m2) {
         checked.insert(other_id);
         continue;
       }

@@ -601,18 +601,23 @@ TEST(Dormancy, NeverWhenOffAndNotBeforeConsolidation) {
   EXPECT_NO_THROW(GlobalMap{early});
 }
 
-/// Bridging over an occlusion gap: a wall at z = 10 seen in two segments, x ∈ [−4, −2] (frame 0)
-/// and x ∈ [1, 3] (frame 1), each 2 × 2 tiles of 1 m (four observations: mature), 3 m apart.
-/// Optionally a back wall at z = 14 (colour bin 5) seen through the gap, and the second segment
-/// `step_m` nearer than the first.
+/// Bridging over an occlusion gap: a wall at z = 10 seen in two segments 3 m apart, x ∈ [−8, −2]
+/// × y ∈ [−2, 2] in frame 0 (24 cells of 1 m: large and mature) and x ∈ [1, 3] × y ∈ [0, 2] in
+/// frame 1 (four cells: mature). Optionally a back wall at z = 14 (colour bin 5) seen through the
+/// gap, the second segment `step_m` nearer than the first, or the first one only 2 m × 2 m (as
+/// small as the side of a parked car).
 struct BridgeCase {
   MapConfig config;
   bool back_wall = false;
   float step_m = 0.0f;
+  bool small_first = false;
   std::vector<MergeReport> run() const {
     GlobalMap map(config);
     std::vector<Planecell> first, second;
-    test::tile(first, {-4, 0, 10}, kX, kY, 2, 2, 1, 0, 0);
+    if (small_first)
+      test::tile(first, {-4, 0, 10}, kX, kY, 2, 2, 1, 0, 0);
+    else
+      test::tile(first, {-8, -2, 10}, kX, kY, 6, 4, 1, 0, 0);
     if (back_wall) test::tile(first, {-6, -1, 14}, kX, kY, 12, 4, 2, 0, 5);
     test::tile(second, {1, 0, 10 - step_m}, kX, kY, 2, 2, 1, 0, 0);
     std::vector<MergeReport> reports;
@@ -626,7 +631,8 @@ struct BridgeCase {
 
 TEST(Bridge, MatureSegmentsOfOnePlaneMergeAcrossAHiddenGap) {
   BridgeCase c;
-  c.config.bridge_gap_m = 5.0;
+  ASSERT_EQ(c.config.bridge_gap_m, 5.0);  // on by default
+  ASSERT_EQ(c.config.bridge_min_area_m2, 20.0);
   const auto reports = c.run();
   EXPECT_EQ(c.surfaces_after, 1u);
   ASSERT_EQ(reports[1].surface_merges.size(), 1u);
@@ -635,31 +641,42 @@ TEST(Bridge, MatureSegmentsOfOnePlaneMergeAcrossAHiddenGap) {
   EXPECT_EQ(reports[1].removed_surfaces, std::vector<std::uint32_t>{reports[1].surface_merges[0].absorbed});
 }
 
-TEST(Bridge, NoMergeWhenOffOutOfReachSeenThroughOrNotOnOnePlane) {
+TEST(Bridge, NoMergeWhenOffOutOfReachSmallSeenThroughOrNotOnOnePlane) {
   BridgeCase off;  // bridge_gap_m = 0: the 3 m gap keeps them apart
+  off.config.bridge_gap_m = 0.0;
   off.run();
   EXPECT_EQ(off.surfaces_after, 2u);
   BridgeCase short_reach;
   short_reach.config.bridge_gap_m = 2.5;  // the segments' cells are 3 m apart
   short_reach.run();
   EXPECT_EQ(short_reach.surfaces_after, 2u);
+  // Two segments of 4 m² each: more likely two objects than one surface behind an occluder.
+  BridgeCase small;
+  small.small_first = true;
+  small.run();
+  EXPECT_EQ(small.surfaces_after, 2u);
+  small.config.bridge_min_area_m2 = 0.0;  // any size
+  small.run();
+  EXPECT_EQ(small.surfaces_after, 1u);
   BridgeCase seen_through;  // the back wall shows through the gap: it is not hidden
-  seen_through.config.bridge_gap_m = 5.0;
   seen_through.back_wall = true;
   const auto reports = seen_through.run();
   EXPECT_EQ(seen_through.surfaces_after, 3u);
   EXPECT_TRUE(reports[1].surface_merges.empty());
   BridgeCase stepped;  // 15 cm apart: a curb, not one plane (max_plane_distance_m 8 cm)
-  stepped.config.bridge_gap_m = 5.0;
   stepped.step_m = 0.15f;
   stepped.run();
   EXPECT_EQ(stepped.surfaces_after, 2u);
 }
 
-TEST(Bridge, NegativeGapIsAConfigError) {
+TEST(Bridge, NegativeGapOrAreaIsAConfigError) {
   MapConfig config;
   config.bridge_gap_m = -1.0;
   EXPECT_THROW(GlobalMap{config}, ConfigError);
+  config.bridge_gap_m = 5.0;
+  config.bridge_min_area_m2 = -1.0;
+  EXPECT_CONTAINS(test::error_of<ConfigError>([&] { GlobalMap{config}; }),
+                  "map.bridge_min_area_m2: must be >= 0");
 }
 
 /// Frame f of a drive along a 4 m wide road (y = 1.5, x ∈ [−2, 2]): the row z ∈ [2f, 2f + 2] in

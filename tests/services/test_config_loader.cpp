@@ -107,9 +107,12 @@ TEST(ConfigLoader, ShippedPresetsLoad) {
   EXPECT_TRUE(refine.refine.enabled);
   EXPECT_EQ(refine.extraction.photometric_iterations, 5);
   EXPECT_EQ(refine.map.bridge_gap_m, 5.0);
+  EXPECT_EQ(refine.map.bridge_min_area_m2, 0.0);  // bridges small surfaces too, as measured
   EXPECT_EQ(refine.map.min_inlier_ratio, 0.0);  // keeps the weak fits the default map drops
   EXPECT_EQ(load_config(dir / "synthetic.yaml").map.min_inlier_ratio, MapConfig{}.min_inlier_ratio);
-  EXPECT_EQ(load_config(dir / "synthetic.yaml").map.bridge_gap_m, 0.0);
+  // The default bridge: large surfaces only.
+  EXPECT_EQ(load_config(dir / "synthetic.yaml").map.bridge_gap_m, MapConfig{}.bridge_gap_m);
+  EXPECT_EQ(load_config(dir / "synthetic.yaml").map.bridge_min_area_m2, 20.0);
 }
 
 }  // namespace
