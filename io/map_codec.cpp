@@ -121,6 +121,26 @@ std::uint32_t get_u32_varint(Reader& r, const char* what) {
   return static_cast<std::uint32_t>(v);
 }
 
+/// Versions 6 and 7: the histogram weight and areas, the mean colour (floats) and the bounds, as
+/// real groups.
+void put_areas_colour_bounds(Writer& w, const map::Surface& s) {
+  put_reals(w, std::array{s.histogram_weight_m2, s.observed_area_m2, s.area_m2});
+  w.put_matrix(s.mean_rgb);
+  put_reals(w, std::array{s.bounds.min.x(), s.bounds.min.y(), s.bounds.min.z(), s.bounds.max.x(),
+                          s.bounds.max.y(), s.bounds.max.z()});
+}
+
+void get_areas_colour_bounds(Reader& r, map::Surface& s) {
+  std::array<double, 3> areas{};
+  get_reals(r, areas);
+  s.histogram_weight_m2 = areas[0], s.observed_area_m2 = areas[1], s.area_m2 = areas[2];
+  r.get_matrix(s.mean_rgb);
+  std::array<double, 6> bounds{};
+  get_reals(r, bounds);
+  s.bounds.min = {bounds[0], bounds[1], bounds[2]};
+  s.bounds.max = {bounds[3], bounds[4], bounds[5]};
+}
+
 /// The raw surface encoding of `version` ≤ 6 (a live surface: these versions had no dormant
 /// ones): 3–5 doubles and u32 counts as they are; 6 reals as float groups where exact
 /// (put_reals), counts and ids as varints.
@@ -144,16 +164,15 @@ std::vector<std::uint8_t> encode_surface_legacy(const map::Surface& s, int versi
   w.put_matrix(d.moment_outer);
   for (std::uint16_t h : s.histogram.bins()) w.put(h);
   if (v6) {
-    reals({s.histogram_weight_m2, s.observed_area_m2, s.area_m2});
-    w.put_matrix(s.mean_rgb);
+    put_areas_colour_bounds(w, s);
   } else {  // version 5 kept the colour between the histogram weight and the areas
     w.put(s.histogram_weight_m2);
     w.put_matrix(s.mean_rgb);
     w.put(s.observed_area_m2);
     w.put(s.area_m2);
+    w.put_matrix(s.bounds.min);
+    w.put_matrix(s.bounds.max);
   }
-  reals({s.bounds.min.x(), s.bounds.min.y(), s.bounds.min.z(), s.bounds.max.x(), s.bounds.max.y(),
-         s.bounds.max.z()});
   reals({d.basis.origin.x(), d.basis.origin.y(), d.basis.origin.z()});
   reals({d.basis.u.x(), d.basis.u.y(), d.basis.u.z(), d.basis.v.x(), d.basis.v.y(), d.basis.v.z()});
   count(s.observations);
@@ -188,14 +207,7 @@ map::Surface decode_surface_legacy(std::uint32_t id, const void* data, std::size
   for (std::uint16_t& h : bins) h = r.get<std::uint16_t>();
   s.histogram = map::CompactHistogram(bins);
   if (v6) {
-    std::array<double, 3> areas{};
-    get_reals(r, areas);
-    s.histogram_weight_m2 = areas[0], s.observed_area_m2 = areas[1], s.area_m2 = areas[2];
-    r.get_matrix(s.mean_rgb);
-    std::array<double, 6> bounds{};
-    get_reals(r, bounds);
-    s.bounds.min = {bounds[0], bounds[1], bounds[2]};
-    s.bounds.max = {bounds[3], bounds[4], bounds[5]};
+    get_areas_colour_bounds(r, s);
     get_basis(r, d.basis);
     s.observations = get_u32_varint(r, "observation count");
     const auto cells = r.get_varint();
@@ -233,10 +245,7 @@ std::vector<std::uint8_t> encode_surface_v7(const map::Surface& s) {
   w.put(s.information);
   w.put(s.histogram.mask());
   for (std::uint16_t h : s.histogram.nonzero()) w.put(h);
-  put_reals(w, std::array{s.histogram_weight_m2, s.observed_area_m2, s.area_m2});
-  w.put_matrix(s.mean_rgb);
-  put_reals(w, std::array{s.bounds.min.x(), s.bounds.min.y(), s.bounds.min.z(), s.bounds.max.x(),
-                          s.bounds.max.y(), s.bounds.max.z()});
+  put_areas_colour_bounds(w, s);
   w.put_varint(s.observations);
   w.put_varint(s.last_observed_frame);
   w.put_varint(s.cells.size());
@@ -279,14 +288,7 @@ map::Surface decode_surface_v7(std::uint32_t id, const void* data, std::size_t s
                            " is marked non-zero but holds 0");
     }
   s.histogram = map::CompactHistogram(bins);
-  std::array<double, 3> areas{};
-  get_reals(r, areas);
-  s.histogram_weight_m2 = areas[0], s.observed_area_m2 = areas[1], s.area_m2 = areas[2];
-  r.get_matrix(s.mean_rgb);
-  std::array<double, 6> bounds{};
-  get_reals(r, bounds);
-  s.bounds.min = {bounds[0], bounds[1], bounds[2]};
-  s.bounds.max = {bounds[3], bounds[4], bounds[5]};
+  get_areas_colour_bounds(r, s);
   s.observations = get_u32_varint(r, "observation count");
   s.last_observed_frame = r.get_varint();
   const auto cells = r.get_varint();
