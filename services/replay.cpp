@@ -305,6 +305,7 @@ ReplayReport run_replay(const ReplayOptions& options, const AppConfig& config) {
   report.plane_fraction = report.frames > 0 ? plane_fraction_sum / static_cast<double>(report.frames) : 0.0;
   report.cells_in_map = global_map.cells().size();
   report.surfaces = global_map.surfaces().size();
+  report.dormant_surfaces = map::dormant_surface_count(global_map);
   const std::size_t frames_in_map = report.frames + committed.size();
   report.bytes_per_frame =
       frames_in_map > 0 ? static_cast<double>(report.map_bytes) / static_cast<double>(frames_in_map) : 0.0;
@@ -349,6 +350,7 @@ nlohmann::json to_json(const ReplayReport& r) {
                         {"plane_fraction", r.plane_fraction},
                         {"cells", r.cells_in_map},
                         {"surfaces", r.surfaces},
+                        {"dormant_surfaces", r.dormant_surfaces},
                         {"fused_cells", r.fused_cells},
                         {"redundant_cells", r.redundant_cells},
                         {"replaced_cells", r.replaced_cells},
@@ -429,7 +431,8 @@ std::string summary_text(const ReplayReport& r) {
   if (r.rate_hz > 0.0) out << ", input paced at " << r.rate_hz << " Hz";
   out << "); " << r.cells_extracted << " cells extracted ("
       << 100.0 * r.plane_fraction << " % with a plane)\n";
-  out << "  map: " << r.cells_in_map << " cells, " << r.surfaces << " surfaces, " << r.fused_cells
+  out << "  map: " << r.cells_in_map << " cells, " << r.surfaces << " surfaces (" << r.dormant_surfaces
+      << " dormant), " << r.fused_cells
       << " re-observations fused (" << r.redundant_cells << " by coverage), " << r.replaced_cells
       << " cells replaced by nearer ones, " << r.consolidated_cells << " old cells consolidated, "
       << r.surface_merges << " surface merges, " << r.pruned_surfaces

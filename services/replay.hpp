@@ -81,6 +81,7 @@ struct ReplayReport {
   double plane_fraction = 0.0;     ///< mean share of segments with a plane
   std::size_t cells_in_map = 0;
   std::size_t surfaces = 0;
+  std::size_t dormant_surfaces = 0;  ///< of those, asleep at the end (map.dormant_after_frames)
   std::size_t fused_cells = 0;     ///< re-observations folded into surfaces, not stored
   std::size_t redundant_cells = 0;  ///< of those, space the map already held (coverage rule)
   std::size_t replaced_cells = 0;   ///< stored cells replaced by nearer, more precise ones

@@ -310,4 +310,11 @@ class GlobalMap {
   std::uint32_t next_surface_id_ = 0;
 };
 
+/// Surfaces of `map` that are dormant (no SurfaceDetail: MapConfig::dormant_after_frames).
+inline std::size_t dormant_surface_count(const GlobalMap& map) {
+  std::size_t n = 0;
+  for (const auto& [id, surface] : map.surfaces()) n += !surface.detail;
+  return n;
+}
+
 }  // namespace planecell::map

@@ -233,7 +233,8 @@ std::string describe_map_store(const fs::path& path) {
   out << "  frames:       " << store.frame_count() << " committed\n";
   out << "  cells:        " << global_map.cells().size() << " (" << planecells_with_surface
       << " with a surface label)\n";
-  out << "  surfaces:     " << global_map.surfaces().size() << ", " << area_m2 << " m² in all\n";
+  out << "  surfaces:     " << global_map.surfaces().size() << " ("
+      << map::dormant_surface_count(global_map) << " dormant), " << area_m2 << " m² in all\n";
   out << "  merges:       " << store.merge_history().size() << " surface merges recorded\n";
   // Where the map is: the bounds of every integrated cell (the surfaces' bounds, fused
   // re-observations included), and how far the camera went (path_length_m, frame order).

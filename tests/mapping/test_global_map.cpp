@@ -541,6 +541,7 @@ TEST(Dormancy, AQuietSurfaceDropsItsDetailAndIsWokenWhenSeenAgain) {
       EXPECT_TRUE(std::find(report.updated_surfaces.begin(), report.updated_surfaces.end(), patch) ==
                   report.updated_surfaces.end());
       EXPECT_FALSE(s.detail.has_value());
+      EXPECT_EQ(dormant_surface_count(map), 1u);  // the far wall is seen every frame
       Surface expected = before;
       expected.quiet_moments = quiet_moments_of(moments_of(before));
       expected.detail.reset();
@@ -567,6 +568,7 @@ TEST(Dormancy, AQuietSurfaceDropsItsDetailAndIsWokenWhenSeenAgain) {
     } else {
       // Seen again: woken, the re-observation fused into it (no new surface, no new cell).
       EXPECT_TRUE(s.detail.has_value());
+      EXPECT_EQ(dormant_surface_count(map), 0u);
       EXPECT_EQ(s.quiet_moments, QuietMoments{});
       EXPECT_EQ(s.last_observed_frame, QuietPatch::kRevisit);
       EXPECT_EQ(s.observations, before.observations + 4);

@@ -69,6 +69,7 @@ TEST(InfoCommand, SummarisesAMapStoreWithItsRefinedFrames) {
   std::string out;
   ASSERT_EQ(run_info(db.string(), &out), 0) << out;
   EXPECT_CONTAINS(out, "2 committed");
+  EXPECT_CONTAINS(out, "surfaces:     1 (0 dormant), ");  // seen in the last frame: awake
   EXPECT_CONTAINS(out, "1 of 2 frames refined");
   EXPECT_CONTAINS(out, "mean 0.050 m, max 0.050 m / 0.000 deg");
   // The 1 m cell spans x 0…1, y 1.5, z 5…6; the camera moved from the origin to z = 1.
