@@ -1,6 +1,7 @@
 #pragma once
 /// Rigid poses. A pose T_world_cam maps camera-frame points to the world frame.
 #include <Eigen/Geometry>
+#include <numbers>
 #include <string>
 
 #include "core/plane.hpp"
@@ -8,6 +9,9 @@
 namespace planecell {
 
 using Pose = Eigen::Isometry3d;
+
+inline constexpr double kDegToRad = std::numbers::pi / 180.0;  ///< degrees → radians
+inline constexpr double kRadToDeg = 180.0 / std::numbers::pi;  ///< radians → degrees
 
 /// Throws InputError naming `source` when the pose holds NaN/Inf or its rotation is not
 /// orthonormal with det +1 (|RᵀR − I|∞ > tolerance or |det R − 1| > tolerance).

@@ -12,6 +12,7 @@
 
 #include "core/error.hpp"
 #include "io/image_io.hpp"
+#include "io/paths.hpp"
 
 namespace planecell::io {
 namespace {
@@ -56,8 +57,7 @@ std::vector<fs::path> list_images(const fs::path& dir) {
   std::error_code ec;
   for (const auto& entry : fs::directory_iterator(dir, ec)) {
     if (!entry.is_regular_file()) continue;
-    std::string ext = entry.path().extension().string();
-    std::transform(ext.begin(), ext.end(), ext.begin(), ::tolower);
+    const std::string ext = lower_extension(entry.path());
     if (ext == ".png" || ext == ".jpg" || ext == ".jpeg" || ext == ".ppm" || ext == ".pgm")
       images.push_back(entry.path());
   }

@@ -53,7 +53,7 @@ std::int64_t unzigzag(std::uint64_t v) {
   return static_cast<std::int64_t>(v >> 1) ^ -static_cast<std::int64_t>(v & 1);
 }
 
-struct Writer {
+struct CodeWriter {
   std::vector<std::uint8_t> out;
   void u8(std::uint8_t v) { out.push_back(v); }
   void varint(std::uint64_t v) {
@@ -78,7 +78,7 @@ struct Writer {
   }
 };
 
-struct Reader {
+struct CodeReader {
   std::span<const std::uint8_t> in;
   std::size_t pos = 0;
 
@@ -515,7 +515,7 @@ std::uint32_t planecell_codec_crc32(std::span<const std::uint8_t> data) {
 std::vector<std::uint8_t> encode_planecells(const std::vector<Planecell>& cells,
                                             const StereoCamera& camera, std::uint64_t frame_id,
                                             const PlanecellCodecOptions& options) {
-  Writer w;
+  CodeWriter w;
   w.out.reserve(64 + cells.size() * 24);
   for (std::uint8_t m : kMagic) w.u8(m);
   w.u8(kPlanecellCodecVersion);
@@ -602,7 +602,7 @@ std::vector<std::uint8_t> encode_planecells(const std::vector<Planecell>& cells,
 }
 
 DecodedPlanecells decode_planecells(std::span<const std::uint8_t> bytes) {
-  Reader r{bytes};
+  CodeReader r{bytes};
   if (bytes.size() < kMagic.size() + 2 + 4) r.fail("input too short for a planecell frame");
   for (std::uint8_t m : kMagic)
     if (r.u8("magic") != m) r.fail("bad magic (not a planecell frame)");

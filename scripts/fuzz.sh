@@ -19,7 +19,8 @@ CXX_BIN=${PLANECELL_FUZZ_CXX:-$(command -v clang++-14 || command -v clang++)}
 LAUNCHER=()
 if command -v ccache >/dev/null 2>&1; then LAUNCHER=(-DCMAKE_CXX_COMPILER_LAUNCHER=ccache); fi
 
-cmake -S . -B "$BUILD_DIR" -DCMAKE_BUILD_TYPE=Debug -DCMAKE_CXX_FLAGS_DEBUG="-O1 -g1" \
+source scripts/generator.sh && planecell_generator "$BUILD_DIR"
+cmake -S . -B "$BUILD_DIR" "${PLANECELL_GENERATOR[@]}" -DCMAKE_BUILD_TYPE=Debug -DCMAKE_CXX_FLAGS_DEBUG="-O1 -g1" \
   -DCMAKE_CXX_COMPILER="$CXX_BIN" -DPLANECELL_FUZZ=ON -DPLANECELL_BUILD_TESTS=OFF \
   -DPLANECELL_BUILD_BENCHMARKS=OFF "${LAUNCHER[@]}" >/dev/null
 SECONDS=0

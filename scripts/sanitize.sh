@@ -14,7 +14,8 @@ if command -v ccache >/dev/null 2>&1; then LAUNCHER=(-DCMAKE_CXX_COMPILER_LAUNCH
 # -O1 -g1: sanitizer builds are for finding bugs, not speed; it keeps the compile and the run short
 # (-g1 = line tables only: reports keep file:line, the compile is a third faster than with -g).
 # Benchmarks are not built (they are not tests).
-cmake -S . -B "$BUILD_DIR" -DCMAKE_BUILD_TYPE=Debug -DCMAKE_CXX_FLAGS_DEBUG="-O1 -g1" \
+source scripts/generator.sh && planecell_generator "$BUILD_DIR"
+cmake -S . -B "$BUILD_DIR" "${PLANECELL_GENERATOR[@]}" -DCMAKE_BUILD_TYPE=Debug -DCMAKE_CXX_FLAGS_DEBUG="-O1 -g1" \
   -DPLANECELL_SANITIZE=address,undefined -DPLANECELL_BUILD_BENCHMARKS=OFF "${LAUNCHER[@]}" >/dev/null
 SECONDS=0
 cmake --build "$BUILD_DIR" -j "$JOBS"

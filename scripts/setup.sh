@@ -4,7 +4,7 @@
 set -euo pipefail
 
 PACKAGES=(
-  build-essential cmake pkg-config git
+  build-essential cmake ninja-build pkg-config git
   libeigen3-dev libopencv-dev libopencv-contrib-dev liboctomap-dev libceres-dev
   libspdlog-dev libcli11-dev liblcm-dev liblcm-bin libreaderwriterqueue-dev
   libgtest-dev libgmock-dev libbenchmark-dev libyaml-cpp-dev libsqlite3-dev sqlite3 libboost-dev

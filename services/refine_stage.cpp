@@ -28,7 +28,6 @@ nlohmann::json rpe_json(const eval::RpeResult& r) {
           {"rotation_rmse_deg", r.rotation_rmse_deg}};
 }
 
-constexpr double kRadToDeg = 180.0 / std::numbers::pi;
 
 }  // namespace
 

@@ -16,7 +16,7 @@ bool representable(double s, double t, double resolution_m) {
   return std::max(std::abs(s), std::abs(t)) / resolution_m <= static_cast<double>(1 << 30);
 }
 
-constexpr int kShift = 8;  // fillPoly fixed-point bits
+constexpr int kFootprintShift = 8;  // fillPoly fixed-point bits
 constexpr int N = FootprintTile::kSize;
 
 std::int64_t floor_div(std::int64_t a, std::int64_t b) { return a >= 0 ? a / b : -((-a + b - 1) / b); }
@@ -79,11 +79,11 @@ double Footprint::add_polygon(std::span<const Eigen::Vector2d> ring) {
   cv::Mat mask = cv::Mat::zeros(static_cast<int>(rows), static_cast<int>(cols), CV_8U);
   std::vector<cv::Point> points;
   points.reserve(ring.size());
-  const double scale = static_cast<double>(1 << kShift);
+  const double scale = static_cast<double>(1 << kFootprintShift);
   for (const auto& p : ring)
     points.emplace_back(static_cast<int>(std::lround((p.x() * inv - 0.5 - static_cast<double>(i0)) * scale)),
                         static_cast<int>(std::lround((p.y() * inv - 0.5 - static_cast<double>(j0)) * scale)));
-  cv::fillPoly(mask, std::vector<std::vector<cv::Point>>{points}, cv::Scalar(1), cv::LINE_8, kShift);
+  cv::fillPoly(mask, std::vector<std::vector<cv::Point>>{points}, cv::Scalar(1), cv::LINE_8, kFootprintShift);
   std::size_t added = 0;
   for (std::int64_t r = 0; r < rows; ++r) {
     const auto* m = mask.ptr<std::uint8_t>(static_cast<int>(r));

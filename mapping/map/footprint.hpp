@@ -25,8 +25,10 @@ struct FootprintTile {
 
 class Footprint {
  public:
+  /// A 0.1 m footprint (not explicit, so aggregates holding a Footprint value-initialise).
+  Footprint() : Footprint(0.1) {}
   /// Throws ConfigError unless resolution_m is in (0, 10].
-  explicit Footprint(double resolution_m = 0.1);
+  explicit Footprint(double resolution_m);
 
   /// Marks the bits whose centres lie inside the polygon `ring` (basis coordinates (s, t) in m,
   /// either orientation, closing vertex optional). Returns the area newly covered:

@@ -12,7 +12,6 @@
 namespace planecell::refine {
 namespace {
 
-constexpr double kDegToRad = std::numbers::pi / 180.0;
 
 }  // namespace
 

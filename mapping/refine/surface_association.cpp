@@ -11,7 +11,6 @@
 namespace planecell::refine {
 namespace {
 
-constexpr double kDegToRad = std::numbers::pi / 180.0;
 
 /// In-plane distance (m) from the projection of `x` onto `plane` to the polygon `vertices` (which
 /// lie on `plane`): 0 inside (even–odd crossing test), else the distance to the nearest edge.

@@ -9,7 +9,7 @@ namespace {
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 /// null for NaN/∞ (JSON has no NaN).
-nlohmann::json number(double v) {
+nlohmann::json json_number(double v) {
   return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr);
 }
 
@@ -25,10 +25,10 @@ nlohmann::json latency_json(const std::vector<std::pair<std::string, LatencySumm
 nlohmann::json table1_json(const eval::AccuracyCurve& curve) {
   nlohmann::json out = {{"gt_pixels", curve.gt_pixels()},
                         {"with_point", curve.with_point()},
-                        {"density_pct", number(curve.density_pct())}};
+                        {"density_pct", json_number(curve.density_pct())}};
   for (double r : eval::kPointRadiiM) {
     const int k = static_cast<int>(std::lround(r / curve.max_m() * curve.steps()));
-    out["within_" + std::to_string(std::lround(100 * r)) + "cm_pct"] = number(curve.within_pct(k));
+    out["within_" + std::to_string(std::lround(100 * r)) + "cm_pct"] = json_number(curve.within_pct(k));
   }
   return out;
 }
@@ -135,7 +135,7 @@ nlohmann::json to_json(const BenchReport& r) {
 
   nlohmann::json estimated = nlohmann::json::object();
   for (std::size_t k = 0; k < kRepresentations; ++k)
-    estimated[representation_name(k)] = number(estimated_frames_per_s(r, k));
+    estimated[representation_name(k)] = json_number(estimated_frames_per_s(r, k));
   nlohmann::json time = {{"stages", latency_json(r.replay.stage_latency)},
                          {"bench_stages", latency_json(r.bench_latency)},
                          {"threaded", r.threaded},

@@ -14,7 +14,7 @@
 namespace planecell::services::bench {
 namespace {
 
-constexpr int kLeft = 96, kTop = 52, kBottom = 72, kRight = 28, kColourBar = 120;
+constexpr int kViewLeft = 96, kViewTop = 52, kViewBottom = 72, kViewRight = 28, kColourBar = 120;
 
 /// A cell reduced to what the view needs.
 struct DrawnCell {
@@ -120,7 +120,7 @@ PlotArea layout_area(const Layout& l) {
   const bool y_up = std::abs(std::abs(l.up.y()) - 1.0) < 1e-6;
   const Axis ax = linear_axis(l.a_min, l.a_max, y_up ? "x (m)" : "a (m), x made horizontal");
   const Axis bx = linear_axis(l.b_min, l.b_max, y_up ? "z (m), forward" : "b (m) = up x a");
-  return PlotArea(cv::Rect(kLeft, kTop, l.plot_w, l.plot_h), ax, bx);
+  return PlotArea(cv::Rect(kViewLeft, kViewTop, l.plot_w, l.plot_h), ax, bx);
 }
 
 }  // namespace
@@ -133,8 +133,8 @@ cv::Mat render_top_view(std::span<const map::MapCell> cells, const TopViewOption
   const Layout layout = make_layout(cells, options);
   const PlotArea area = layout_area(layout);
   const bool height = options.colour == TopViewColour::kHeight;
-  const cv::Size size(kLeft + layout.plot_w + kRight + (height ? kColourBar : 0),
-                      kTop + layout.plot_h + kBottom);
+  const cv::Size size(kViewLeft + layout.plot_w + kViewRight + (height ? kColourBar : 0),
+                      kViewTop + layout.plot_h + kViewBottom);
   cv::Mat image(size, CV_8UC3, cv::Scalar(255, 255, 255));
 
   double lo = 0.0, hi = 1.0;

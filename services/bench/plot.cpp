@@ -22,7 +22,7 @@ const cv::Scalar kWhite(255, 255, 255);
 
 // Margins around the plot area: left (tick labels + rotated y label), right, top (title),
 // bottom (tick labels + x label).
-constexpr int kLeft = 96, kRight = 28, kTop = 52, kBottom = 72;
+constexpr int kPlotLeft = 96, kPlotRight = 28, kPlotTop = 52, kPlotBottom = 72;
 
 void check_axis(const Axis& axis, const char* which) {
   if (!(axis.max > axis.min) || !std::isfinite(axis.min) || !std::isfinite(axis.max))
@@ -40,7 +40,7 @@ cv::Point sub_pixel(const cv::Point2d& p, const cv::Point& origin) {
 }
 
 PlotArea area_with_margins(cv::Size size, const Axis& x, const Axis& y) {
-  return PlotArea(cv::Rect(kLeft, kTop, size.width - kLeft - kRight, size.height - kTop - kBottom),
+  return PlotArea(cv::Rect(kPlotLeft, kPlotTop, size.width - kPlotLeft - kPlotRight, size.height - kPlotTop - kPlotBottom),
                   x, y);
 }
 
@@ -235,9 +235,9 @@ std::vector<std::string> series_names(const LinePlot& plot) {
 PlotArea line_plot_area(const LinePlot& plot) {
   if (plot.legend != LegendPlace::kOutsideRight)
     return area_with_margins(plot.size, plot.x, plot.y);
-  const int right = kRight + legend_width(series_names(plot)) + 12;
+  const int right = kPlotRight + legend_width(series_names(plot)) + 12;
   return PlotArea(
-      cv::Rect(kLeft, kTop, plot.size.width - kLeft - right, plot.size.height - kTop - kBottom),
+      cv::Rect(kPlotLeft, kPlotTop, plot.size.width - kPlotLeft - right, plot.size.height - kPlotTop - kPlotBottom),
       plot.x, plot.y);
 }
 
@@ -285,7 +285,7 @@ cv::Mat render_line_plot(const LinePlot& plot) {
       draw_legend(image, {r.x + 10 + legend_width(names), r.y + 10}, names, colours);
       break;
     case LegendPlace::kOutsideRight:
-      draw_legend(image, {plot.size.width - kRight, r.y}, names, colours);
+      draw_legend(image, {plot.size.width - kPlotRight, r.y}, names, colours);
       break;
   }
   return image;

@@ -7,6 +7,7 @@
 #include <optional>
 
 #include "core/error.hpp"
+#include "io/paths.hpp"
 #include "io/disparity_io.hpp"
 #include "io/image_io.hpp"
 #include "mapping/stereo/sgm.hpp"
@@ -15,16 +16,12 @@
 namespace planecell::services {
 namespace {
 
+using io::lower_extension;
+
 struct DisparityOptions {
   std::string left, right, output, preview;
   std::optional<int> max_disparity;
 };
-
-std::string lower_extension(const std::filesystem::path& p) {
-  std::string ext = p.extension().string();
-  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  return ext;
-}
 
 int run_disparity(const CommandContext& context, const DisparityOptions& options) {
   SgmConfig config = context.load_app_config().sgm;

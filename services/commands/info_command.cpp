@@ -23,16 +23,12 @@
 namespace planecell::services {
 namespace {
 
+using io::lower_extension;
+
 namespace fs = std::filesystem;
 using io::is_dir;
 using io::is_file;
 
-
-std::string lower_extension(const fs::path& p) {
-  std::string ext = p.extension().string();
-  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  return ext;
-}
 
 std::size_t count_files(const fs::path& dir) {
   std::size_t n = 0;

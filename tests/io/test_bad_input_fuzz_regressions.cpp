@@ -19,9 +19,12 @@
 #include "support/expect_error.hpp"
 #include "support/planecell_fixtures.hpp"
 #include "support/test_data.hpp"
+#include "support/text_files.hpp"
 
 namespace planecell::io {
 namespace {
+
+using test::write_text;
 
 using test::input_error_of;
 
@@ -31,10 +34,6 @@ std::vector<std::uint8_t> bytes_of_hex(const std::string& hex) {
   for (std::size_t i = 0; i + 1 < hex.size(); i += 2)
     bytes.push_back(static_cast<std::uint8_t>(std::stoi(hex.substr(i, 2), nullptr, 16)));
   return bytes;
-}
-
-void write_text(const std::filesystem::path& path, const std::string& text) {
-  std::ofstream(path, std::ios::binary) << text;
 }
 
 /// fuzz_euroc crash-66e30fa8: `distortion_model` given as a list escaped read_euroc_camera as

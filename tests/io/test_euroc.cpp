@@ -8,26 +8,24 @@
 #include <opencv2/core.hpp>
 #include <opencv2/features2d.hpp>
 
-#include "support/expect_error.hpp"
 #include "core/error.hpp"
 #include "io/euroc.hpp"
 #include "io/euroc_to_kitti.hpp"
-#include "io/kitti_odometry.hpp"
 #include "io/image_io.hpp"
+#include "io/kitti_odometry.hpp"
+#include "support/expect_error.hpp"
 #include "support/test_data.hpp"
+#include "support/text_files.hpp"
 
 namespace planecell::io {
 namespace {
+
+using test::write_text;
 
 namespace fs = std::filesystem;
 
 
 using test::input_error_of;
-
-void write_text(const fs::path& path, const std::string& text) {
-  fs::create_directories(path.parent_path());
-  std::ofstream(path) << text;
-}
 
 std::string matrix_text(const Pose& pose) {
   std::ostringstream text;

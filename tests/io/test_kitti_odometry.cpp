@@ -5,14 +5,17 @@
 #include <fstream>
 #include <opencv2/core.hpp>
 
-#include "support/expect_error.hpp"
 #include "core/error.hpp"
 #include "io/image_io.hpp"
 #include "io/kitti_odometry.hpp"
+#include "support/expect_error.hpp"
 #include "support/test_data.hpp"
+#include "support/text_files.hpp"
 
 namespace planecell::io {
 namespace {
+
+using test::write_text;
 
 namespace fs = std::filesystem;
 
@@ -29,11 +32,6 @@ std::string calib_text() {
          "P2: 7.188560e+02 0 6.071928e+02 43.13136 0 7.188560e+02 1.852157e+02 0 0 0 1 0\n"
          "P3: 7.188560e+02 0 6.071928e+02 -343.01344 0 7.188560e+02 1.852157e+02 0 0 0 1 0\n"
          "Tr: 1 0 0 0 0 1 0 0 0 0 1 0\n";
-}
-
-void write_text(const fs::path& path, const std::string& text) {
-  fs::create_directories(path.parent_path());
-  std::ofstream(path) << text;
 }
 
 using test::input_error_of;

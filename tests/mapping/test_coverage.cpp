@@ -12,7 +12,9 @@ namespace {
 
 using test::rect_cell;
 
-const Eigen::Vector3f kX(1, 0, 0), kZ(0, 0, 1);
+using test::kX;
+using test::kY;
+using test::kZ;
 
 /// A 1 m road square at x ∈ [x0, x0 + w], z ∈ [5, 6] on the plane y = 1.5.
 Planecell road(std::uint32_t id, float x0, float w = 1.0f, int colour_bin = 3) {

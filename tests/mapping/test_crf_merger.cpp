@@ -17,7 +17,9 @@ namespace {
 
 using test::rect_cell;
 
-const Eigen::Vector3f kX(1, 0, 0), kY(0, 1, 0), kZ(0, 0, 1);
+using test::kX;
+using test::kY;
+using test::kZ;
 
 /// σ_n = σ_Z·|n·C + e| / |X̄ − C|: a wall seen head-on keeps (almost) all of σ_Z, a road cell
 /// 1.65 m below the camera and 16.5 m ahead keeps 1.65 / √(1.65² + 16.5²) of it, a cell seen

@@ -7,13 +7,12 @@
 
 #include "core/error.hpp"
 #include "mapping/map/footprint.hpp"
+#include "support/planecell_fixtures.hpp"
 
 namespace planecell::map {
 namespace {
 
-std::vector<Eigen::Vector2d> rectangle(double s0, double t0, double s1, double t1) {
-  return {{s0, t0}, {s0, t1}, {s1, t1}, {s1, t0}};
-}
+using test::rectangle;
 
 TEST(Footprint, SquareCoversTheBitsWhoseCentresLieInside) {
   Footprint f(0.1);

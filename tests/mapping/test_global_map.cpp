@@ -15,7 +15,9 @@
 namespace planecell::map {
 namespace {
 
-const Eigen::Vector3f kX(1, 0, 0), kY(0, 1, 0), kZ(0, 0, 1);
+using test::kX;
+using test::kY;
+using test::kZ;
 
 using test::rect_cell;
 

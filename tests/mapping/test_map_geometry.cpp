@@ -12,7 +12,9 @@ namespace {
 
 using test::rect_cell;
 
-const Eigen::Vector3f kX(1, 0, 0), kY(0, 1, 0), kZ(0, 0, 1);
+using test::kX;
+using test::kY;
+using test::kZ;
 
 TEST(MapGeometry, GapsBetweenHandPlacedSquares) {
   const Planecell a = rect_cell(0, {0, 0, 0}, kX, kZ, 0);          // y = 0, x, z ∈ [0, 1]

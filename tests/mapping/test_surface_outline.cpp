@@ -10,13 +10,12 @@
 #include "core/error.hpp"
 #include "mapping/map/surface_outline.hpp"
 #include "support/expect_error.hpp"
+#include "support/planecell_fixtures.hpp"
 
 namespace planecell::map {
 namespace {
 
-std::vector<Eigen::Vector2d> rectangle(double s0, double t0, double s1, double t1) {
-  return {{s0, t0}, {s0, t1}, {s1, t1}, {s1, t0}};
-}
+using test::rectangle;
 
 /// A surface's plane and detail: the plane z = 0, the basis make_basis builds there from the
 /// origin (u = x, v = y) and an empty 10 cm footprint.

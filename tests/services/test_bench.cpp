@@ -22,18 +22,14 @@
 #include "support/expect_error.hpp"
 #include "support/small_street.hpp"
 #include "support/test_data.hpp"
+#include "support/text_files.hpp"
 
 namespace planecell::services::bench {
 namespace {
 
-namespace fs = std::filesystem;
+using test::read_text;
 
-std::string read_file(const fs::path& path) {
-  std::ifstream in(path);
-  std::ostringstream text;
-  text << in.rdbuf();
-  return text.str();
-}
+namespace fs = std::filesystem;
 
 /// GT pixels (GT disparity > 0) of the sequence's frames, read from disp_occ_0/ directly.
 long gt_pixels_of(const fs::path& sequence, int frames) {
@@ -59,7 +55,7 @@ class BenchTest : public ::testing::Test {
     options.progress = false;
     report_ = new BenchReport(run_bench(options, test::small_street_config()));
     json_ =
-        new nlohmann::json(nlohmann::json::parse(read_file(*scratch_ / "report" / "report.json")));
+        new nlohmann::json(nlohmann::json::parse(read_text(*scratch_ / "report" / "report.json")));
   }
   static void TearDownTestSuite() {
     delete json_;
@@ -170,7 +166,7 @@ TEST_F(BenchTest, FiguresExistWithTheirSizes) {
 }
 
 TEST_F(BenchTest, MarkdownEmbedsTheFiguresAndFollowsEveryTableWithItsCommand) {
-  const std::string md = read_file(*scratch_ / "report" / "report.md");
+  const std::string md = read_text(*scratch_ / "report" / "report.md");
   for (const char* figure : {"accuracy.png", "memory.png", "latency.png", "map_top_height.png",
                              "map_top_surfaces.png", "overlay_000000.png"})
     EXPECT_CONTAINS(md, std::string("](") + figure + ")");
@@ -197,7 +193,7 @@ TEST_F(BenchTest, MarkdownEmbedsTheFiguresAndFollowsEveryTableWithItsCommand) {
 }
 
 TEST_F(BenchTest, MarkdownStatesThePapersFiguresNextToThisRun) {
-  const std::string md = read_file(*scratch_ / "report" / "report.md");
+  const std::string md = read_text(*scratch_ / "report" / "report.md");
   EXPECT_CONTAINS(md, "## Against the paper");
   EXPECT_CONTAINS(md, "200 ms for ~700 cells");
   EXPECT_CONTAINS(md, "| CRF merging per frame | 100 ms |");
@@ -261,7 +257,7 @@ TEST_F(BenchTest, CommandLineRunsAndAppendsAnEvalStereoReport) {
                               &output),
             0)
       << output;
-  const std::string stereo = read_file(dir / "stereo.md");
+  const std::string stereo = read_text(dir / "stereo.md");
   EXPECT_CONTAINS(stereo, "# Stereo accuracy: synthetic (1 pair)");
   EXPECT_CONTAINS(stereo, "## 3D accuracy (paper Table 1)");
   EXPECT_CONTAINS(stereo, "_Regenerate:_ `planecell --config ");
@@ -274,11 +270,11 @@ TEST_F(BenchTest, CommandLineRunsAndAppendsAnEvalStereoReport) {
       << output;
   EXPECT_CONTAINS(output, "report: ");
   EXPECT_CONTAINS(output, "planecell:");
-  const auto j = nlohmann::json::parse(read_file(dir / "out" / "report.json"));
+  const auto j = nlohmann::json::parse(read_text(dir / "out" / "report.json"));
   EXPECT_EQ(j["frames"]["first"], 1);
   EXPECT_EQ(j["frames"]["count"], 2);
   EXPECT_EQ(j["overlay_frame"], 1);
-  const std::string md = read_file(dir / "out" / "report.md");
+  const std::string md = read_text(dir / "out" / "report.md");
   EXPECT_CONTAINS(md, "## Stereo accuracy: synthetic (1 pair)");  // appended one level deeper
   EXPECT_CONTAINS(md, "--frames 1:3");
   EXPECT_TRUE(fs::exists(dir / "out" / "overlay_000001.png"));

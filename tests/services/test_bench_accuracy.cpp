@@ -16,7 +16,7 @@
 namespace planecell::services {
 namespace {
 
-constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
+constexpr float kNoDisparity = std::numeric_limits<float>::quiet_NaN();
 
 StereoCamera small_camera() {
   StereoCamera c;
@@ -55,7 +55,7 @@ TEST(AccuracyCurve, CountsMatchADirectDistanceTestAtEveryThreshold) {
   for (int v = 0; v < est.rows; ++v)
     for (int u = 0; u < est.cols; ++u) {
       est.at<float>(v, u) += static_cast<float>(std::sin(0.37 * u + 0.91 * v));
-      if ((u * 7 + v * 3) % 23 == 0) est.at<float>(v, u) = kNaN;
+      if ((u * 7 + v * 3) % 23 == 0) est.at<float>(v, u) = kNoDisparity;
     }
   const auto curve = eval::point_accuracy_curve(est, gt, camera);
   // Independently: the two 3D points of each GT pixel, their Euclidean distance.

@@ -19,9 +19,12 @@
 #include "io/map_store.hpp"
 #include "support/small_street.hpp"
 #include "support/test_data.hpp"
+#include "support/text_files.hpp"
 
 namespace planecell::services {
 namespace {
+
+using test::read_text;
 
 using namespace std::chrono_literals;
 
@@ -44,13 +47,6 @@ bool multicast_works(const std::string& url) {
     lcm.handleTimeout(200);
   }
   return probe.got;
-}
-
-std::string read_file(const std::filesystem::path& path) {
-  std::ifstream in(path);
-  std::stringstream text;
-  text << in.rdbuf();
-  return text.str();
 }
 
 /// A `planecell` child process with stdout+stderr in a log file.
@@ -100,7 +96,7 @@ class Child {
     }
     return -1;
   }
-  std::string log() const { return read_file(log_); }
+  std::string log() const { return read_text(log_); }
 
  private:
   std::filesystem::path log_;

@@ -8,6 +8,14 @@
 
 namespace planecell::test {
 
+/// The world axes, as rect_cell edge directions.
+inline const Eigen::Vector3f kX(1, 0, 0), kY(0, 1, 0), kZ(0, 0, 1);
+
+/// The axis-aligned rectangle [s0, s1] × [t0, t1] as a ring of four 2D vertices.
+inline std::vector<Eigen::Vector2d> rectangle(double s0, double t0, double s1, double t1) {
+  return {{s0, t0}, {s0, t1}, {s1, t1}, {s1, t0}};
+}
+
 /// A rectangular world-frame cell with vertices corner, corner+e1, corner+e1+e2, corner+e2, its
 /// exact plane (n = e1×e2 normalised, offset −n·corner), a one-bin colour histogram at
 /// `colour_bin`, mean colour (4·bin, 100, 50), area 400 px and a 20×20 px image square.
