@@ -1,6 +1,5 @@
 #include "services/refine_stage.hpp"
 
-#include <numbers>
 #include <sstream>
 
 #include "io/kitti_odometry.hpp"
@@ -27,7 +26,6 @@ nlohmann::json rpe_json(const eval::RpeResult& r) {
           {"rotation_deg_per_m", r.rotation_deg_per_m},
           {"rotation_rmse_deg", r.rotation_rmse_deg}};
 }
-
 
 }  // namespace
 
@@ -71,7 +69,7 @@ Pose RefineStage::refine(std::uint64_t frame_id, std::span<const Planecell> cell
     const auto clamp_norm = [](auto&& v, double max_norm) {
       if (v.norm() > max_norm) v *= max_norm / v.norm();
     };
-    clamp_norm(drift_.head<3>(), config_.max_drift_deg_per_m * std::numbers::pi / 180.0);
+    clamp_norm(drift_.head<3>(), config_.max_drift_deg_per_m * kDegToRad);
     clamp_norm(drift_.tail<3>(), config_.max_drift_per_m);
   }
   record.drift = drift_;

@@ -431,9 +431,9 @@ std::string summary_text(const ReplayReport& r) {
   if (r.rate_hz > 0.0) out << ", input paced at " << r.rate_hz << " Hz";
   out << "); " << r.cells_extracted << " cells extracted ("
       << 100.0 * r.plane_fraction << " % with a plane)\n";
-  out << "  map: " << r.cells_in_map << " cells, " << r.surfaces << " surfaces (" << r.dormant_surfaces
-      << " dormant), " << r.fused_cells
-      << " re-observations fused (" << r.redundant_cells << " by coverage), " << r.replaced_cells
+  out << "  map: " << r.cells_in_map << " cells, " << r.surfaces << " surfaces ("
+      << r.dormant_surfaces << " dormant), " << r.fused_cells << " re-observations fused ("
+      << r.redundant_cells << " by coverage), " << r.replaced_cells
       << " cells replaced by nearer ones, " << r.consolidated_cells << " old cells consolidated, "
       << r.surface_merges << " surface merges, " << r.pruned_surfaces
       << " unconfirmed surfaces pruned\n";

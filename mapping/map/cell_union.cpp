@@ -11,7 +11,7 @@
 namespace planecell::map {
 namespace {
 
-constexpr int kUnionShift = 8;          // fillPoly fixed-point bits
+constexpr int kUnionShift = 8;     // fillPoly fixed-point bits
 constexpr int kMaxSide = 4000;     // bits per side of the union's raster
 
 /// A polygon's bits: its own mask over `box` of the union's raster.
@@ -77,9 +77,11 @@ std::vector<CellUnion> unite_cells(std::span<const std::span<const Eigen::Vector
     cell.mask = cv::Mat::zeros(cell.box.size(), CV_8U);
     std::vector<cv::Point> points;
     for (const auto& p : rings[i])
-      points.emplace_back(static_cast<int>(std::lround((p.x() - i0 - cell.box.x) * (1 << kUnionShift))),
-                          static_cast<int>(std::lround((p.y() - j0 - cell.box.y) * (1 << kUnionShift))));
-    cv::fillPoly(cell.mask, std::vector<std::vector<cv::Point>>{points}, cv::Scalar(1), cv::LINE_8, kUnionShift);
+      points.emplace_back(
+          static_cast<int>(std::lround((p.x() - i0 - cell.box.x) * (1 << kUnionShift))),
+          static_cast<int>(std::lround((p.y() - j0 - cell.box.y) * (1 << kUnionShift))));
+    cv::fillPoly(cell.mask, std::vector<std::vector<cv::Point>>{points}, cv::Scalar(1), cv::LINE_8,
+                 kUnionShift);
     cv::Mat roi = all(cell.box);
     cv::bitwise_or(roi, cell.mask, roi);
   }

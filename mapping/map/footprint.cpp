@@ -83,7 +83,8 @@ double Footprint::add_polygon(std::span<const Eigen::Vector2d> ring) {
   for (const auto& p : ring)
     points.emplace_back(static_cast<int>(std::lround((p.x() * inv - 0.5 - static_cast<double>(i0)) * scale)),
                         static_cast<int>(std::lround((p.y() * inv - 0.5 - static_cast<double>(j0)) * scale)));
-  cv::fillPoly(mask, std::vector<std::vector<cv::Point>>{points}, cv::Scalar(1), cv::LINE_8, kFootprintShift);
+  cv::fillPoly(mask, std::vector<std::vector<cv::Point>>{points}, cv::Scalar(1), cv::LINE_8,
+               kFootprintShift);
   std::size_t added = 0;
   for (std::int64_t r = 0; r < rows; ++r) {
     const auto* m = mask.ptr<std::uint8_t>(static_cast<int>(r));

@@ -2,18 +2,13 @@
 
 #include <Eigen/Geometry>
 #include <cmath>
-#include <numbers>
 
 #include "core/error.hpp"
 #include "mapping/refine/correction_solver.hpp"
-#include "mapping/refine/surface_planes.hpp"
 #include "mapping/refine/surface_association.hpp"
+#include "mapping/refine/surface_planes.hpp"
 
 namespace planecell::refine {
-namespace {
-
-
-}  // namespace
 
 Eigen::Matrix<double, 6, 1> correction_between(const Pose& from, const Pose& to) {
   const Eigen::AngleAxisd rotation(to.linear() * from.linear().transpose());

@@ -3,14 +3,12 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
-#include <numbers>
 #include <optional>
 
 #include "mapping/map/geometry.hpp"
 
 namespace planecell::refine {
 namespace {
-
 
 /// In-plane distance (m) from the projection of `x` onto `plane` to the polygon `vertices` (which
 /// lie on `plane`): 0 inside (even–odd crossing test), else the distance to the nearest edge.

@@ -28,7 +28,8 @@ nlohmann::json table1_json(const eval::AccuracyCurve& curve) {
                         {"density_pct", json_number(curve.density_pct())}};
   for (double r : eval::kPointRadiiM) {
     const int k = static_cast<int>(std::lround(r / curve.max_m() * curve.steps()));
-    out["within_" + std::to_string(std::lround(100 * r)) + "cm_pct"] = json_number(curve.within_pct(k));
+    out["within_" + std::to_string(std::lround(100 * r)) + "cm_pct"] =
+        json_number(curve.within_pct(k));
   }
   return out;
 }

@@ -40,7 +40,8 @@ cv::Point sub_pixel(const cv::Point2d& p, const cv::Point& origin) {
 }
 
 PlotArea area_with_margins(cv::Size size, const Axis& x, const Axis& y) {
-  return PlotArea(cv::Rect(kPlotLeft, kPlotTop, size.width - kPlotLeft - kPlotRight, size.height - kPlotTop - kPlotBottom),
+  return PlotArea(cv::Rect(kPlotLeft, kPlotTop, size.width - kPlotLeft - kPlotRight,
+                           size.height - kPlotTop - kPlotBottom),
                   x, y);
 }
 
@@ -236,9 +237,9 @@ PlotArea line_plot_area(const LinePlot& plot) {
   if (plot.legend != LegendPlace::kOutsideRight)
     return area_with_margins(plot.size, plot.x, plot.y);
   const int right = kPlotRight + legend_width(series_names(plot)) + 12;
-  return PlotArea(
-      cv::Rect(kPlotLeft, kPlotTop, plot.size.width - kPlotLeft - right, plot.size.height - kPlotTop - kPlotBottom),
-      plot.x, plot.y);
+  return PlotArea(cv::Rect(kPlotLeft, kPlotTop, plot.size.width - kPlotLeft - right,
+                           plot.size.height - kPlotTop - kPlotBottom),
+                  plot.x, plot.y);
 }
 
 cv::Mat render_line_plot(const LinePlot& plot) {

@@ -7,9 +7,9 @@
 #include <optional>
 
 #include "core/error.hpp"
-#include "io/paths.hpp"
 #include "io/disparity_io.hpp"
 #include "io/image_io.hpp"
+#include "io/paths.hpp"
 #include "mapping/stereo/sgm.hpp"
 #include "services/commands/commands.hpp"
 

@@ -23,12 +23,10 @@
 namespace planecell::services {
 namespace {
 
-using io::lower_extension;
-
 namespace fs = std::filesystem;
 using io::is_dir;
 using io::is_file;
-
+using io::lower_extension;
 
 std::size_t count_files(const fs::path& dir) {
   std::size_t n = 0;

@@ -4,9 +4,9 @@
 #include <algorithm>
 #include <cmath>
 #include <fstream>
-#include <sstream>
 #include <opencv2/core.hpp>
 #include <opencv2/features2d.hpp>
+#include <sstream>
 
 #include "core/error.hpp"
 #include "io/euroc.hpp"

@@ -13,7 +13,6 @@ namespace {
 using test::rect_cell;
 
 using test::kX;
-using test::kY;
 using test::kZ;
 
 /// A 1 m road square at x ∈ [x0, x0 + w], z ∈ [5, 6] on the plane y = 1.5.

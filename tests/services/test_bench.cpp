@@ -3,11 +3,10 @@
 /// the CLI, and `eval-stereo --report-md`.
 #include <gtest/gtest.h>
 
-#include <iomanip>
-
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <iomanip>
 #include <nlohmann/json.hpp>
 #include <sstream>
 

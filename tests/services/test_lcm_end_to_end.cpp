@@ -2,15 +2,15 @@
 /// synthetic sequence. The listener's mirror equals the daemon's map; malformed and out-of-order
 /// messages are counted and skipped; SIGTERM mid-stream leaves a map store that reopens. Each test
 /// has its own multicast port (ttl=0: nothing leaves the machine). Skips when multicast is unusable.
+#include <fcntl.h>
 #include <gtest/gtest.h>
-#include <lcm/lcm-cpp.hpp>
 #include <signal.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
 #include <chrono>
-#include <fcntl.h>
 #include <fstream>
+#include <lcm/lcm-cpp.hpp>
 #include <sstream>
 #include <thread>
 
