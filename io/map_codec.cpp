@@ -458,6 +458,7 @@ std::vector<Eigen::Vector3f> decode_vertices(const void* data, std::size_t size,
       }
       out.push_back(v);
     }
+    out.shrink_to_fit();  // the map keeps it: no growth slack (a cell's polygon never grows)
     return out;
   }
   const std::size_t rest = size - (version >= 6 ? 1 : 0);

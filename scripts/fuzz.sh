@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Builds the libFuzzer targets (tests/fuzz, clang + ASan/UBSan) in ./build-fuzz and runs each for a
-# bounded time from its seed corpus. Fails on the first target that crashes, leaks, times out on an
-# input or runs out of memory; the reproducer is left in build-fuzz/findings/<target>/.
+# bounded time from its seed corpus, PLANECELL_JOBS targets at a time. Fails when a target crashes,
+# leaks, times out on an input or runs out of memory; the reproducer is left in
+# build-fuzz/findings/<target>/.
 # Env: PLANECELL_FUZZ_SECONDS (per target, default 20), PLANECELL_FUZZ_TARGETS (space-separated
 #      subset, default all), PLANECELL_FUZZ_BUILD_DIR (default build-fuzz), PLANECELL_JOBS,
 #      PLANECELL_FUZZ_SEED (libFuzzer -seed, default 1: CI replays the same mutation sequence, so a
@@ -33,14 +34,14 @@ SEEDS="$BUILD_DIR/seeds"
 export ASAN_OPTIONS="detect_leaks=1:halt_on_error=1"
 export UBSAN_OPTIONS="print_stacktrace=1:halt_on_error=1:suppressions=$ROOT/tests/sanitizers/ubsan.supp"
 export LSAN_OPTIONS="suppressions=$ROOT/tests/sanitizers/lsan.supp:print_suppressions=0"
-status=0
-for target in $TARGETS; do
-  work="$BUILD_DIR/corpus/$target"          # grows across runs (libFuzzer writes new inputs here)
-  findings="$BUILD_DIR/findings/$target"
+# One target: runs it, prints its stats line, or its log's tail and returns 1 on a finding.
+fuzz_one() {
+  local target=$1
+  local work="$BUILD_DIR/corpus/$target"          # grows across runs (libFuzzer writes new inputs here)
+  local findings="$BUILD_DIR/findings/$target"
   mkdir -p "$work" "$findings" "$SEEDS/$target"
-  committed="tests/fuzz/corpus/$target"
+  local committed="tests/fuzz/corpus/$target"
   [ -d "$committed" ] || committed=""
-  echo "[fuzz] $target for ${SECONDS_EACH}s"
   # -rss_limit_mb/-malloc_limit_mb: a reader that allocates > 1 GiB for a tiny input is a finding
   # (resource limits are checked before allocating). -timeout: one input taking > 10 s is a hang.
   if ! "$BIN/fuzz_$target" -max_total_time="$SECONDS_EACH" -seed="$SEED" -timeout=10 -rss_limit_mb=2048 \
@@ -48,10 +49,26 @@ for target in $TARGETS; do
       "$work" "$SEEDS/$target" $committed > "$BUILD_DIR/fuzz_$target.log" 2>&1; then
     echo "[fuzz] $target FAILED: see $BUILD_DIR/fuzz_$target.log and $findings/" >&2
     tail -40 "$BUILD_DIR/fuzz_$target.log" >&2
-    status=1
-  else
-    grep -E "stat::number_of_executed_units|stat::new_units_added" "$BUILD_DIR/fuzz_$target.log" |
-      tr '\n' ' ' | sed "s/^/[fuzz] $target: /"; echo
+    return 1
   fi
+  grep -E "stat::number_of_executed_units|stat::new_units_added" "$BUILD_DIR/fuzz_$target.log" |
+    tr '\n' ' ' | sed "s/^/[fuzz] $target: /"; echo
+}
+
+# The targets run $JOBS at a time (each fuzzer is single-threaded): same seed and time per target.
+echo "[fuzz] $(echo $TARGETS | wc -w) targets, ${SECONDS_EACH}s each, $JOBS at a time"
+status=0
+running=0
+for target in $TARGETS; do
+  if [ "$running" -ge "$JOBS" ]; then
+    wait -n || status=1
+    running=$((running - 1))
+  fi
+  fuzz_one "$target" &
+  running=$((running + 1))
+done
+while [ "$running" -gt 0 ]; do
+  wait -n || status=1
+  running=$((running - 1))
 done
 exit $status

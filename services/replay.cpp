@@ -338,6 +338,19 @@ ReplayReport run_replay(const ReplayOptions& options, const AppConfig& config) {
   return report;
 }
 
+std::optional<VoxelComparison> compare_with_voxel(const ReplayReport& r) {
+  if (!r.voxel || r.map_bytes == 0) return std::nullopt;
+  VoxelComparison c;
+  c.ram_times_smaller = static_cast<double>(r.voxel_bytes) / static_cast<double>(r.map_bytes);
+  if (r.store_bytes > 0) {
+    c.store_times_smaller_than_ot =
+        static_cast<double>(r.voxel_ot_bytes) / static_cast<double>(r.store_bytes);
+    if (r.voxel_bt_bytes > 0)
+      c.store_over_bt = static_cast<double>(r.store_bytes) / static_cast<double>(r.voxel_bt_bytes);
+  }
+  return c;
+}
+
 nlohmann::json to_json(const ReplayReport& r) {
   nlohmann::json stages = nlohmann::json::object();
   for (const auto& [name, s] : r.stage_latency)
@@ -417,6 +430,12 @@ nlohmann::json to_json(const ReplayReport& r) {
                     {"voxel_ot_bytes", r.voxel_ot_bytes}, {"voxel_bt_bytes", r.voxel_bt_bytes},
                     {"voxel_leaves", r.voxel_leaves}};
   }
+  if (const auto c = compare_with_voxel(r)) {
+    auto& vs = out["map_vs_voxel"] = {{"ram_times_smaller", c->ram_times_smaller}};
+    if (c->store_times_smaller_than_ot)
+      vs["store_times_smaller_than_ot"] = *c->store_times_smaller_than_ot;
+    if (c->store_over_bt) vs["store_over_bt"] = *c->store_over_bt;
+  }
   if (r.refine) out["refine"] = to_json(*r.refine);
   return out;
 }
@@ -474,6 +493,17 @@ std::string summary_text(const ReplayReport& r) {
     out << "  voxel baseline (" << r.voxel_mode << "): " << r.voxel_leaves << " voxels, "
         << r.voxel_bytes / 1024.0 << " KiB in RAM, .ot " << r.voxel_ot_bytes / 1024.0 << " KiB, .bt "
         << r.voxel_bt_bytes / 1024.0 << " KiB\n";
+  if (const auto c = compare_with_voxel(r)) {
+    out << "  map vs voxel baseline: " << c->ram_times_smaller << "x smaller in RAM";
+    if (c->store_times_smaller_than_ot)
+      out << "; store " << *c->store_times_smaller_than_ot << "x smaller than the .ot";
+    if (c->store_over_bt) {
+      out.precision(2);
+      out << ", " << *c->store_over_bt << "x the .bt";
+      out.precision(1);
+    }
+    out << "\n";
+  }
   if (r.refine) out << summary_text(*r.refine);
   out << "  per-stage latency (ms, p50 / p95 / max; CPU ms p50, page faults per frame):";
   for (const auto& [name, s] : r.stage_latency) {

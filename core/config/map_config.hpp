@@ -120,11 +120,13 @@ struct MapConfig {
   /// A cell takes part when its vertices all lie within max(consolidate_max_distance_m, σ_Z) of
   /// the surface's plane (σ_Z its depth noise: the CRF's own range); one the surface's plane does
   /// not describe keeps its own. The map then keeps its surfaces' extent to within a bit and the
-  /// tolerance, in far fewer records and vertices. 20 frames rather than 30: on eight 100-frame
-  /// synthetic streets the store is 6–10 % smaller with every merge score unchanged (15 frames:
-  /// 3–6 % smaller still, also unchanged; docs/PERFORMANCE.md, "Consolidation and dormancy after
-  /// 20 frames"). 0 = off.
-  int consolidate_after_frames = 20;
+  /// tolerance, in far fewer records and vertices. 10 frames: on eight 100-frame synthetic
+  /// streets the map is 9–12 % smaller in RAM and 5–10 % in store than at 20 (20 was 6–10 %
+  /// below 30), every merge score within 0.5 points; 6 frames lost 6 points of one-label area
+  /// on one street (docs/PERFORMANCE.md, "Consolidation and dormancy after 10 frames, 2 KiB
+  /// pages"). A cell consolidated while still in view is covered by new views like any stored
+  /// cell. 0 = off.
+  int consolidate_after_frames = 10;
   double consolidate_tile_m = 8.0;
   double consolidate_resolution_m = 0.05;
   double consolidate_tolerance_m = 0.10;
@@ -137,8 +139,8 @@ struct MapConfig {
   /// coming near it again (a loop) wake it: its moments are kept at float precision
   /// (QuietMoments), its footprint is rebuilt from its stored cells, which consolidation has made
   /// cover it to within a bit. Must be ≥ consolidate_after_frames (a surface is consolidated
-  /// before it goes dormant). 0 = never.
-  int dormant_after_frames = 20;
+  /// before it goes dormant). 10, as consolidate_after_frames. 0 = never.
+  int dormant_after_frames = 10;
   // --- queries --------------------------------------------------------------------------------
   double up_x = 0.0;  ///< world "up" (KITTI camera-style world: y down, so up = (0, −1, 0))
   double up_y = -1.0;

@@ -394,6 +394,8 @@ TEST(Fusion, ASingleViewSurfaceNothingComesNearIsPrunedAfterTheTimeout) {
   MapConfig config;
   config.max_range_m = 100.0;
   config.max_depth_sigma_m = 0.0;
+  // Consolidation (after 10 frames by default) would unite the road's cells in frame 10 too.
+  config.consolidate_after_frames = 0;
   ASSERT_EQ(config.unconfirmed_timeout_frames, 10);
   const Planecell far_panel = rect_cell(30, {40.0f, 0.5f, 5.0f}, kX, kY, 9);
   GlobalMap map(config);
@@ -445,6 +447,7 @@ TEST(Fusion, UnconfirmedSurfacesStayWhenPruningIsOff) {
   MapConfig config;
   config.unconfirmed_max_age_frames = 0;
   config.unconfirmed_timeout_frames = 0;
+  config.consolidate_after_frames = 0;  // keeps the road's 8 cells as they are (counted below)
   GlobalMap map(config);
   std::vector<Planecell> first = scene.road();
   first.push_back(scene.across());

@@ -78,9 +78,9 @@ TEST(InfoCommand, SummarisesAMapStoreWithItsRefinedFrames) {
   // One 1 m cell of 4 float vertices (48 B), its surface's one footprint tile (136 B).
   EXPECT_CONTAINS(out, "vertices 0.0, surfaces");
   EXPECT_CONTAINS(out, "footprints 0.1, index");
-  // Two frames fit every table in its root page (4 KiB, SQLite's default page size); the R*Tree
-  // is three tables.
-  EXPECT_CONTAINS(out, "(cells 4.0, cell-bounds R*Tree 12.0, surfaces 4.0, frames 4.0, merges 4.0");
+  // Two frames fit every table in its root page (2 KiB, the page size of a new store); the
+  // R*Tree is three tables.
+  EXPECT_CONTAINS(out, "(cells 2.0, cell-bounds R*Tree 6.0, surfaces 2.0, frames 2.0, merges 2.0");
 }
 
 TEST(InfoCommand, SummarisesADisparityMap) {

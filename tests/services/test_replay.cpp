@@ -11,6 +11,7 @@
 #include "io/map_store.hpp"
 #include "io/sequence_ground_truth.hpp"
 #include "services/replay.hpp"
+#include "support/expect_error.hpp"
 #include "support/small_street.hpp"
 #include "support/test_data.hpp"
 
@@ -112,6 +113,39 @@ TEST_F(ReplayTest, VoxelBaselineIsFedTheSameFrames) {
   EXPECT_GT(report.voxel_bytes, report.voxel_bt_bytes);
   EXPECT_GT(report.voxel_ot_bytes, report.voxel_bt_bytes);  // colour costs bytes
   EXPECT_EQ(to_json(report)["voxel"]["voxel_leaves"].get<std::size_t>(), report.voxel_leaves);
+  // Without a store only the RAM ratio is reported.
+  const auto ram_only = to_json(report)["map_vs_voxel"];
+  EXPECT_DOUBLE_EQ(ram_only["ram_times_smaller"].get<double>(),
+                   double(report.voxel_bytes) / double(report.map_bytes));
+  EXPECT_FALSE(ram_only.contains("store_over_bt"));
+}
+
+TEST_F(ReplayTest, ReportComparesTheMapWithTheVoxelBaselineAsTheTargetsStateIt) {
+  ReplayOptions options;
+  options.sequence_dir = scratch_ / "seq";
+  options.voxel = true;
+  options.map_path = scratch_ / "map.db";
+  options.last_frame = 2;
+  options.progress = false;
+  ReplayReport report = run_replay(options, config_);
+  ASSERT_GT(report.store_bytes, 0u);
+  const auto c = compare_with_voxel(report);
+  ASSERT_TRUE(c.has_value());
+  ASSERT_TRUE(c->store_times_smaller_than_ot && c->store_over_bt);
+  const auto json = to_json(report)["map_vs_voxel"];
+  EXPECT_DOUBLE_EQ(json["store_times_smaller_than_ot"].get<double>(),
+                   double(report.voxel_ot_bytes) / double(report.store_bytes));
+  EXPECT_DOUBLE_EQ(json["store_over_bt"].get<double>(),
+                   double(report.store_bytes) / double(report.voxel_bt_bytes));
+  // The summary line, on round figures: RAM 4000 / 1000 B, .ot 3000 / 1000 B, 1000 / 4000 B .bt.
+  report.map_bytes = 1000, report.voxel_bytes = 4000;
+  report.store_bytes = 1000, report.voxel_ot_bytes = 3000, report.voxel_bt_bytes = 4000;
+  EXPECT_CONTAINS(summary_text(report),
+                  "map vs voxel baseline: 4.0x smaller in RAM; store 3.0x smaller than the .ot, "
+                  "0.25x the .bt\n");
+  report.voxel = false;  // no baseline: nothing to compare with
+  EXPECT_FALSE(compare_with_voxel(report).has_value());
+  EXPECT_FALSE(to_json(report).contains("map_vs_voxel"));
 }
 
 TEST_F(ReplayTest, SequenceWithoutPosesIsRejectedWithAClearError) {
