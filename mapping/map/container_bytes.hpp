@@ -14,6 +14,13 @@ std::size_t hash_map_bytes(const Map& m) {
          m.size() * (sizeof(typename Map::value_type) + sizeof(void*));
 }
 
+/// Heap bytes of a node-based ordered map or set (a red-black tree): one node per element, its
+/// value after the colour word and three links (parent, left, right).
+template <class Tree>
+std::size_t tree_bytes(const Tree& t) {
+  return t.size() * (sizeof(typename Tree::value_type) + 4 * sizeof(void*));
+}
+
 /// Rehashes `m` to fit its size when fewer than half of its buckets would be needed (more than
 /// 64 buckets): amortised O(1) per erase, since the table must halve between two calls that do
 /// work, and growth (which doubles the buckets when they fill) does not trigger it again.

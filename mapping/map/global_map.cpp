@@ -729,7 +729,8 @@ MapBytes GlobalMap::map_bytes_by_part() const {
   bytes.index = index_.bytes();
   bytes.cells += consolidation_queue_.size() * sizeof(consolidation_queue_.front());
   for (const auto& [id, cell] : cells_) bytes.vertices += cell.vertices_m.capacity() * sizeof(Eigen::Vector3f);
-  bytes.surfaces += dormancy_clock_.size() * sizeof(std::pair<std::uint64_t, std::uint32_t>);
+  bytes.surfaces += dormancy_clock_.size() * sizeof(std::pair<std::uint64_t, std::uint32_t>) +
+                    tree_bytes(single_observation_since_);
   for (const auto& [id, surface] : surfaces_) {
     bytes.surfaces += surface.cells.capacity() * sizeof(std::uint32_t) + surface.histogram.bytes();
     if (surface.detail) {

@@ -141,7 +141,7 @@ struct MergeReport {
 struct MapBytes {
   std::size_t cells = 0;       ///< cell records and their hash table
   std::size_t vertices = 0;    ///< cells' polygon vertices
-  std::size_t surfaces = 0;    ///< surface records, their hash table and member-id lists
+  std::size_t surfaces = 0;    ///< surface records, their hash table, member-id lists and clocks
   std::size_t footprints = 0;  ///< surfaces' footprint tiles
   std::size_t index = 0;       ///< spatial index buckets
   std::size_t total() const { return cells + vertices + surfaces + footprints + index; }
