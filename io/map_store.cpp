@@ -185,10 +185,10 @@ MapStore::MapStore(const std::filesystem::path& path) : path_(path) {
       from_version = found;
     }
     // 2 KiB pages for a new store (SQLite's default is 4 KiB): the cell-bounds R*Tree's nodes and
-    // the tables with a few rows (schema, merges) leave less of a page empty, and a surface's
-    // blob rarely spills over; 3 % smaller on a 100-frame street at a lower write cost
-    // (docs/PERFORMANCE.md, "Consolidation and dormancy after 10 frames, 2 KiB pages"). Set
-    // before the first table; an existing store keeps its page size.
+    // the tables with a few rows (schema, merges) leave less of a page empty; 3 % smaller on a
+    // 100-frame street at a lower write cost (1 KiB: no smaller, surface blobs spill into
+    // overflow pages; docs/PERFORMANCE.md, "Consolidation and dormancy after 10 frames, 2 KiB
+    // pages"). Set before the first table; an existing store keeps its page size.
     if (!exists) exec("PRAGMA page_size=2048");
     exec("PRAGMA journal_mode=WAL");
     exec("PRAGMA synchronous=NORMAL");
