@@ -127,7 +127,7 @@ struct ReplayReport {
 /// stop the run with the frame named; frames already committed stay in the store).
 ReplayReport run_replay(const ReplayOptions& options, const AppConfig& config);
 
-/// The map against the voxel baseline fed the same frames, as issue 5's targets state it: the
+/// The map against the voxel baseline fed the same frames, as the memory targets state it: the
 /// map in RAM voxel_bytes / map_bytes times smaller than OctoMap's memoryUsage; the store
 /// voxel_ot_bytes / store_bytes times smaller than the .ot and store_bytes / voxel_bt_bytes of
 /// the .bt (store ratios nullopt without a store).

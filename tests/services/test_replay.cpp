@@ -24,6 +24,13 @@ class ReplayTest : public ::testing::Test {
     test::write_small_street(scratch_ / "seq", 4, 5);
     config_ = test::small_street_config();
   }
+  /// Replay of the fixture's street, quietly (no progress bar).
+  ReplayOptions street_options() const {
+    ReplayOptions options;
+    options.sequence_dir = scratch_ / "seq";
+    options.progress = false;
+    return options;
+  }
   /// Overwrites frame `stem`'s file in the sequence's GT folder `folder` with bytes no image
   /// decoder accepts.
   void corrupt_gt_file(const char* folder, const char* stem) const {
@@ -35,10 +42,8 @@ class ReplayTest : public ::testing::Test {
 };
 
 TEST_F(ReplayTest, MapsEveryFrameAndStoresThem) {
-  ReplayOptions options;
-  options.sequence_dir = scratch_ / "seq";
+  ReplayOptions options = street_options();
   options.map_path = scratch_ / "map.db";
-  options.progress = false;
   const ReplayReport report = run_replay(options, config_);
   EXPECT_EQ(report.frames, 4u);
   EXPECT_GT(report.cells_extracted, 4u * 50u);
@@ -82,9 +87,7 @@ TEST_F(ReplayTest, MapsEveryFrameAndStoresThem) {
 }
 
 TEST_F(ReplayTest, ResumesAfterTheLastCommittedFrameAndMatchesAnUninterruptedRun) {
-  ReplayOptions options;
-  options.sequence_dir = scratch_ / "seq";
-  options.progress = false;
+  ReplayOptions options = street_options();
   options.map_path = scratch_ / "split.db";
   options.last_frame = 2;
   EXPECT_EQ(run_replay(options, config_).frames, 2u);
@@ -102,11 +105,9 @@ TEST_F(ReplayTest, ResumesAfterTheLastCommittedFrameAndMatchesAnUninterruptedRun
 }
 
 TEST_F(ReplayTest, VoxelBaselineIsFedTheSameFrames) {
-  ReplayOptions options;
-  options.sequence_dir = scratch_ / "seq";
+  ReplayOptions options = street_options();
   options.voxel = true;
   options.last_frame = 2;
-  options.progress = false;
   const ReplayReport report = run_replay(options, config_);
   EXPECT_EQ(report.frames, 2u);
   EXPECT_GT(report.voxel_leaves, 1000u);
@@ -121,12 +122,10 @@ TEST_F(ReplayTest, VoxelBaselineIsFedTheSameFrames) {
 }
 
 TEST_F(ReplayTest, ReportComparesTheMapWithTheVoxelBaselineAsTheTargetsStateIt) {
-  ReplayOptions options;
-  options.sequence_dir = scratch_ / "seq";
+  ReplayOptions options = street_options();
   options.voxel = true;
   options.map_path = scratch_ / "map.db";
   options.last_frame = 2;
-  options.progress = false;
   ReplayReport report = run_replay(options, config_);
   ASSERT_GT(report.store_bytes, 0u);
   const auto c = compare_with_voxel(report);
@@ -150,9 +149,7 @@ TEST_F(ReplayTest, ReportComparesTheMapWithTheVoxelBaselineAsTheTargetsStateIt) 
 
 TEST_F(ReplayTest, SequenceWithoutPosesIsRejectedWithAClearError) {
   std::filesystem::remove_all(scratch_ / "seq" / "poses");
-  ReplayOptions options;
-  options.sequence_dir = scratch_ / "seq";
-  options.progress = false;
+  ReplayOptions options = street_options();
   try {
     run_replay(options, config_);
     FAIL() << "expected InputError";
@@ -162,9 +159,7 @@ TEST_F(ReplayTest, SequenceWithoutPosesIsRejectedWithAClearError) {
 }
 
 TEST_F(ReplayTest, GtDisparityReplacesSgmWithTheSequencesGroundTruth) {
-  ReplayOptions options;
-  options.sequence_dir = scratch_ / "seq";
-  options.progress = false;
+  ReplayOptions options = street_options();
   options.gt_disparity = true;
   const io::KittiOdometrySequence sequence = io::open_kitti_odometry(options.sequence_dir);
   std::size_t frames_seen = 0;
@@ -214,9 +209,7 @@ TEST_F(ReplayTest, GtDisparityReplacesSgmWithTheSequencesGroundTruth) {
 }
 
 TEST_F(ReplayTest, CorruptGtDisparityDropsTheCompletenessScoreNotTheMap) {
-  ReplayOptions options;
-  options.sequence_dir = scratch_ / "seq";
-  options.progress = false;
+  ReplayOptions options = street_options();
   const ReplayReport scored = run_replay(options, config_);
   ASSERT_TRUE(scored.map_completeness.has_value());
   // Frame 0's GT disparity (the only one scored, every 10th frame) becomes garbage.
@@ -228,9 +221,7 @@ TEST_F(ReplayTest, CorruptGtDisparityDropsTheCompletenessScoreNotTheMap) {
 }
 
 TEST_F(ReplayTest, CorruptGtSurfaceIdsDropTheMergeScoresNotTheMap) {
-  ReplayOptions options;
-  options.sequence_dir = scratch_ / "seq";
-  options.progress = false;
+  ReplayOptions options = street_options();
   const ReplayReport scored = run_replay(options, config_);
   ASSERT_TRUE(scored.merge_metrics.has_value());
   // Frame 2's surface ids become garbage: the scores end there, the map does not.
