@@ -141,6 +141,24 @@ struct MapConfig {
   /// cover it to within a bit. Must be ≥ consolidate_after_frames (a surface is consolidated
   /// before it goes dormant). 10, as consolidate_after_frames. 0 = never.
   int dormant_after_frames = 10;
+  /// A surface going dormant that holds one stored cell covering less than this area (m²), every
+  /// vertex and the centroid of which lie within fragment_redundant_m of another surface's stored
+  /// cells (distance_to_polygon), is pruned instead (MergeReport::pruned_surfaces): a fragment the
+  /// CRF left beside a surface that already maps the same place. Isolated small pieces (a pole,
+  /// a sign) stay. Needs dormant_after_frames > 0. 0 = keep every fragment.
+  double fragment_max_area_m2 = 1.0;
+  /// A surface going dormant with a footprint smaller than this (m²) first joins its largest
+  /// larger neighbour (a stored cell within neighbour_gap_m) when its points lie within
+  /// fragment_join_distance_m RMS of that neighbour's plane, its normal within
+  /// fragment_join_angle_deg of the neighbour's and its colours pass min_colour_similarity
+  /// (GlobalMap::join_neighbour): a piece of a wall or a car the CRF left apart because a small
+  /// cell's fitted normal is loose (20–30° off on SGM streets). 0 = off.
+  double fragment_join_max_area_m2 = 5.0;
+  double fragment_join_distance_m = 0.10;
+  double fragment_join_angle_deg = 30.0;
+  /// How near another surface's cells a fragment must lie to be redundant (m): the map's
+  /// completeness is scored at 10 cm (replay's `map_vs_ground_truth`).
+  double fragment_redundant_m = 0.10;
   // --- queries --------------------------------------------------------------------------------
   double up_x = 0.0;  ///< world "up" (KITTI camera-style world: y down, so up = (0, −1, 0))
   double up_y = -1.0;
@@ -181,6 +199,11 @@ void visit_fields(MapConfig& c, Visitor&& visit) {
   visit("consolidate_max_hole_m2", c.consolidate_max_hole_m2);
   visit("consolidate_max_distance_m", c.consolidate_max_distance_m);
   visit("dormant_after_frames", c.dormant_after_frames);
+  visit("fragment_max_area_m2", c.fragment_max_area_m2);
+  visit("fragment_redundant_m", c.fragment_redundant_m);
+  visit("fragment_join_max_area_m2", c.fragment_join_max_area_m2);
+  visit("fragment_join_distance_m", c.fragment_join_distance_m);
+  visit("fragment_join_angle_deg", c.fragment_join_angle_deg);
   visit("up_x", c.up_x);
   visit("up_y", c.up_y);
   visit("up_z", c.up_z);

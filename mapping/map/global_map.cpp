@@ -230,6 +230,23 @@ GlobalMap::GlobalMap(const MapConfig& config)
                       ") must be >= map.consolidate_after_frames (" +
                       std::to_string(config.consolidate_after_frames) +
                       "): a surface is consolidated before it goes dormant");
+  if (!(config.fragment_max_area_m2 >= 0.0) || !std::isfinite(config.fragment_max_area_m2))
+    throw ConfigError("map.fragment_max_area_m2: must be >= 0 (0 = off), got " +
+                      std::to_string(config.fragment_max_area_m2));
+  if (config.fragment_max_area_m2 > 0.0 &&
+      (!(config.fragment_redundant_m > 0.0) || !std::isfinite(config.fragment_redundant_m)))
+    throw ConfigError("map.fragment_redundant_m: must be > 0 when fragment_max_area_m2 > 0, got " +
+                      std::to_string(config.fragment_redundant_m));
+  if (!(config.fragment_join_max_area_m2 >= 0.0) || !std::isfinite(config.fragment_join_max_area_m2))
+    throw ConfigError("map.fragment_join_max_area_m2: must be >= 0 (0 = off), got " +
+                      std::to_string(config.fragment_join_max_area_m2));
+  if (config.fragment_join_max_area_m2 > 0.0 &&
+      (!(config.fragment_join_distance_m > 0.0) || !std::isfinite(config.fragment_join_distance_m) ||
+       !(config.fragment_join_angle_deg > 0.0 && config.fragment_join_angle_deg <= 90.0)))
+    throw ConfigError("map.fragment_join_distance_m (" + std::to_string(config.fragment_join_distance_m) +
+                      ") must be > 0 and map.fragment_join_angle_deg (" +
+                      std::to_string(config.fragment_join_angle_deg) +
+                      ") in (0, 90] when fragment_join_max_area_m2 > 0");
   if (config.consolidate_after_frames > 0) {
     auto positive = [](const char* key, double value) {
       if (!(value > 0.0) || !std::isfinite(value))
@@ -625,7 +642,7 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
   }
   if (config_.bridge_gap_m > 0.0) bridge_surfaces(fresh, fresh_input, camera_centre, touched, report);
   consolidate(frame_id, touched, report);
-  retire_quiet_surfaces(frame_id, report);
+  retire_quiet_surfaces(frame_id, touched, report);
   if (!report.removed_cells.empty())  // replaced, pruned or consolidated
     std::erase_if(report.relabelled_cells, [&](std::uint32_t id) { return !cells_.contains(id); });
   report.updated_surfaces.assign(touched.begin(), touched.end());
@@ -707,19 +724,71 @@ void GlobalMap::bridge_surfaces(std::span<const Planecell* const> fresh, std::sp
       if (!merger_.evaluate(ua, a, ub, b, 0.0).in_range) continue;
       if (!hidden_behind(0.5 * (vertex_centroid(cell.vertices_m) + vertex_centroid(old.vertices_m)), id, other_id))
         continue;
-      // The older (smaller id) surface absorbs the newer, as in the CRF's union-find.
-      const std::uint32_t into_id = std::min(id, other_id), gone_id = std::max(id, other_id);
-      LabelState& state = into_id == id ? a : b;
-      fold_label(state, into_id == id ? b : a);
-      absorb_surface(into_id, gone_id, touched, report);
-      Surface& into = surfaces_.at(into_id);
-      into.plane = to_float_precision(state.plane);
-      set_moments(into, state.moments);
-      into.histogram = compact(state.histogram);
-      into.histogram_weight_m2 = to_float_precision(state.histogram_weight_m2);
-      id = into_id;
+      id = merge_surfaces(id, std::move(a), other_id, std::move(b), touched, report);
     }
   }
+}
+
+std::uint32_t GlobalMap::merge_surfaces(std::uint32_t a_id, LabelState a, std::uint32_t b_id, LabelState b,
+                                        std::set<std::uint32_t>& touched, MergeReport& report) {
+  // The older (smaller id) surface absorbs the newer, as in the CRF's union-find.
+  const std::uint32_t into_id = std::min(a_id, b_id), gone_id = std::max(a_id, b_id);
+  LabelState& state = into_id == a_id ? a : b;
+  fold_label(state, into_id == a_id ? b : a);
+  absorb_surface(into_id, gone_id, touched, report);
+  Surface& into = surfaces_.at(into_id);
+  into.plane = to_float_precision(state.plane);
+  set_moments(into, state.moments);
+  into.histogram = compact(state.histogram);
+  into.histogram_weight_m2 = to_float_precision(state.histogram_weight_m2);
+  return into_id;
+}
+
+bool GlobalMap::join_neighbour(Surface& surface, std::set<std::uint32_t>& touched, MergeReport& report) {
+  if (config_.fragment_join_max_area_m2 <= 0.0 || !(surface.area_m2 < config_.fragment_join_max_area_m2))
+    return false;
+  const double gap = config_.neighbour_gap_m;
+  // The largest larger neighbouring surface (a stored cell within the gap of one of this
+  // surface's) that this one lies on.
+  const Surface* best = nullptr;
+  std::vector<std::uint32_t> nearby;
+  std::set<std::uint32_t> checked;
+  const LabelState self = state_of_surface(surface);
+  for (std::uint32_t cell_id : surface.cells) {
+    const MapCell& cell = cells_.at(cell_id);
+    const Aabb box = bounds_of(cell.vertices_m);
+    index_.candidates(box.inflated(gap), nearby);
+    for (std::uint32_t other_cell_id : nearby) {
+      const MapCell& old = cells_.at(other_cell_id);
+      if (old.surface == surface.id || checked.contains(old.surface)) continue;
+      const Surface& other = surfaces_.at(old.surface);
+      if (!(other.area_m2 > surface.area_m2) || (best && other.area_m2 <= best->area_m2)) {
+        checked.insert(old.surface);
+        continue;
+      }
+      const Aabb old_box = bounds_of(old.vertices_m);
+      if (!box.inflated(gap).overlaps(old_box) ||
+          !polygons_within_m(cell.plane, cell.vertices_m, box, old.plane, old.vertices_m, old_box, gap))
+        continue;
+      checked.insert(old.surface);
+      // Its points on the neighbour's plane, its normal (a small patch's is loosely determined)
+      // near the neighbour's, and the CRF's colour gate.
+      const double angle_deg =
+          std::acos(std::min(1.0, std::abs(surface.plane.normal.dot(other.plane.normal)))) * 180.0 / M_PI;
+      if (angle_deg > config_.fragment_join_angle_deg ||
+          self.moments.rms_distance_m(other.plane) > config_.fragment_join_distance_m ||
+          colour_similarity(self.histogram, expand(other.histogram)) < config_.min_colour_similarity)
+        continue;
+      best = &other;
+    }
+  }
+  if (!best) return false;
+  const std::uint32_t other_id = best->id;
+  wake(surfaces_.at(other_id));
+  wake(surface);
+  merge_surfaces(surface.id, state_of_surface(surface), other_id, state_of_surface(surfaces_.at(other_id)),
+                 touched, report);
+  return true;
 }
 
 MapBytes GlobalMap::map_bytes_by_part() const {
@@ -926,7 +995,28 @@ void GlobalMap::wake(Surface& surface) {
   if (config_.dormant_after_frames > 0) dormancy_clock_.emplace(surface.last_observed_frame, surface.id);
 }
 
-void GlobalMap::retire_quiet_surfaces(std::uint64_t frame_id, MergeReport& report) {
+bool GlobalMap::redundant_fragment(const Surface& surface) const {
+  if (config_.fragment_max_area_m2 <= 0.0 || surface.cells.size() != 1 ||
+      !(surface.area_m2 < config_.fragment_max_area_m2))
+    return false;
+  const MapCell& cell = cells_.at(surface.cells.front());
+  const double tolerance = config_.fragment_redundant_m;
+  const std::vector<std::uint32_t> near = query_cells(bounds_of(cell.vertices_m).inflated(tolerance));
+  auto covered = [&](const Eigen::Vector3d& point) {
+    for (std::uint32_t id : near) {
+      const MapCell& other = cells_.at(id);
+      if (other.surface != surface.id && distance_to_polygon(point, other.plane, other.vertices_m) <= tolerance)
+        return true;
+    }
+    return false;
+  };
+  if (!covered(vertex_centroid(cell.vertices_m))) return false;
+  return std::all_of(cell.vertices_m.begin(), cell.vertices_m.end(),
+                     [&](const Eigen::Vector3f& v) { return covered(v.cast<double>()); });
+}
+
+void GlobalMap::retire_quiet_surfaces(std::uint64_t frame_id, std::set<std::uint32_t>& touched,
+                                      MergeReport& report) {
   if (config_.dormant_after_frames <= 0) return;
   const auto quiet = static_cast<std::uint64_t>(config_.dormant_after_frames);
   while (!dormancy_clock_.empty() && dormancy_clock_.top().first + quiet <= frame_id) {
@@ -937,6 +1027,16 @@ void GlobalMap::retire_quiet_surfaces(std::uint64_t frame_id, MergeReport& repor
     Surface& surface = it->second;
     if (surface.last_observed_frame + quiet > frame_id) {  // observed since: due later
       dormancy_clock_.emplace(surface.last_observed_frame, id);
+      continue;
+    }
+    if (join_neighbour(surface, touched, report)) continue;  // live again, the merged surface
+    if (redundant_fragment(surface)) {
+      // Its cell may be this frame's (consolidation): then the map's consumers never see it.
+      const std::uint32_t cell_id = surface.cells.front();
+      const bool added_now = std::erase(report.added_cells, cell_id) > 0;
+      prune_surface(id, report);
+      if (added_now) std::erase(report.removed_cells, cell_id);
+      touched.erase(id);
       continue;
     }
     surface.quiet_moments = quiet_moments_of(moments_of(surface));

@@ -590,6 +590,165 @@ TEST(Dormancy, AQuietSurfaceDropsItsDetailAndIsWokenWhenSeenAgain) {
   EXPECT_TRUE(map.same_content(resumed));
 }
 
+/// Three 0.5 m squares of their own colours seen with the quiet patch in frames 0 and 1: one
+/// 5 cm above the patch (within fragment_redundant_m of its cells: redundant), one 30 cm above it
+/// and one 3 m beside it (isolated). Dormant in frame 6, the first is pruned, the others sleep.
+TEST(Dormancy, ASmallFragmentBesideAnotherSurfaceIsPrunedInsteadOfGoingDormant) {
+  const MapConfig config = QuietPatch::config();
+  ASSERT_EQ(config.fragment_max_area_m2, 1.0);
+  ASSERT_EQ(config.fragment_redundant_m, 0.10);
+  auto frame = [](std::uint64_t f) {
+    std::vector<Planecell> cells = QuietPatch::frame(f);
+    if (f <= 1) {
+      const auto id = [&] { return static_cast<std::uint32_t>(cells.size()); };
+      cells.push_back(rect_cell(id(), {0.5f, 1.45f, 10.5f}, 0.5f * kX, 0.5f * kZ, 12));  // 5 cm above
+      cells.push_back(rect_cell(id(), {1.2f, 1.2f, 10.5f}, 0.5f * kX, 0.5f * kZ, 14));   // 30 cm above
+      cells.push_back(rect_cell(id(), {5.0f, 1.5f, 10.5f}, 0.5f * kX, 0.5f * kZ, 16));   // 3 m beside
+    }
+    return cells;
+  };
+  GlobalMap map(config);
+  MapConfig keep_config = config;
+  keep_config.fragment_max_area_m2 = 0.0;
+  GlobalMap keep(keep_config);
+  std::array<std::uint32_t, 3> fragment{}, fragment_cell{};
+  std::uint32_t patch = kNoSurface;
+  for (std::uint64_t f = 0; f <= 6; ++f) {
+    const auto cells = frame(f);
+    const auto report = map.integrate(f, Pose::Identity(), cells);
+    const auto kept = keep.integrate(f, Pose::Identity(), cells);
+    if (f == 0) {
+      patch = report.cell_surfaces[0];
+      for (std::size_t k = 0; k < 3; ++k) {
+        fragment[k] = report.cell_surfaces[cells.size() - 3 + k];
+        fragment_cell[k] = report.added_cells[report.added_cells.size() - 3 + k];
+      }
+      ASSERT_EQ(std::set<std::uint32_t>(fragment.begin(), fragment.end()).size(), 3u);
+    }
+    if (f == 1)
+      for (std::size_t k = 0; k < 3; ++k) {
+        ASSERT_NE(map.surface(fragment[k]), nullptr) << k;
+        EXPECT_EQ(map.surface(fragment[k])->cells.size(), 1u) << k;
+        EXPECT_EQ(map.surface(fragment[k])->observations, 2u) << k;  // confirmed: no unconfirmed prune
+      }
+    if (f < 6) {
+      EXPECT_TRUE(report.pruned_surfaces.empty()) << "frame " << f;
+      continue;
+    }
+    // Frame 6: everything last seen in frame 1 goes quiet. The redundant fragment leaves the map
+    // with its cell; the map without the prune keeps it dormant.
+    EXPECT_EQ(report.pruned_surfaces, (std::vector<std::uint32_t>{fragment[0]}));
+    EXPECT_EQ(report.removed_cells, (std::vector<std::uint32_t>{fragment_cell[0]}));
+    EXPECT_EQ(map.surface(fragment[0]), nullptr);
+    EXPECT_EQ(map.cell(fragment_cell[0]), nullptr);
+    for (std::size_t k : {1u, 2u}) {
+      ASSERT_NE(map.surface(fragment[k]), nullptr) << k;
+      EXPECT_FALSE(map.surface(fragment[k])->detail.has_value()) << k;
+      EXPECT_TRUE(std::binary_search(report.dormant_surfaces.begin(), report.dormant_surfaces.end(), fragment[k]));
+    }
+    EXPECT_FALSE(std::binary_search(report.dormant_surfaces.begin(), report.dormant_surfaces.end(), fragment[0]));
+    EXPECT_TRUE(kept.pruned_surfaces.empty());
+    EXPECT_TRUE(std::binary_search(kept.dormant_surfaces.begin(), kept.dormant_surfaces.end(), fragment[0]));
+    EXPECT_EQ(keep.surfaces().size(), map.surfaces().size() + 1);
+    EXPECT_LT(map.map_bytes(), keep.map_bytes());
+  }
+  // Queries: the point 2 cm above the pruned fragment's centre now finds the patch, 7 cm below.
+  const auto near = map.nearest_cell({0.75, 1.43, 10.75}, 1.0);
+  ASSERT_TRUE(near.has_value());
+  EXPECT_NEAR(near->distance_m, 0.07, 1e-5);
+  EXPECT_EQ(map.cell(near->cell_id)->surface, patch);
+  // Settings checked.
+  MapConfig bad = config;
+  bad.fragment_max_area_m2 = -1.0;
+  EXPECT_CONTAINS(test::error_of<ConfigError>([&] { GlobalMap{bad}; }), "map.fragment_max_area_m2");
+  bad.fragment_max_area_m2 = 1.0;
+  bad.fragment_redundant_m = 0.0;
+  EXPECT_CONTAINS(test::error_of<ConfigError>([&] { GlobalMap{bad}; }), "map.fragment_redundant_m");
+}
+
+/// A 4 m × 2 m wall at z = 10 (1 m cells, colour bin 3) seen in every frame, and three 0.5 m
+/// squares above its top edge seen in frames 0 and 1 only, each tilted about its centre line
+/// y = −0.25 (which lies in the wall's plane) towards the camera: 20° and the wall's colour,
+/// 40° and the wall's colour, 20° and another colour. The CRF keeps all three apart (10°); going
+/// dormant in frame 6, only the first joins the wall.
+TEST(Dormancy, AFragmentGoingDormantJoinsTheLargerNeighbourItLiesOn) {
+  MapConfig config = QuietPatch::config();
+  ASSERT_EQ(config.fragment_join_max_area_m2, 5.0);
+  ASSERT_EQ(config.fragment_join_distance_m, 0.10);
+  ASSERT_EQ(config.fragment_join_angle_deg, 30.0);
+  ASSERT_EQ(config.max_normal_angle_deg, 10.0);
+  auto tilted = [](std::uint32_t id, float x, float deg, int bin) {
+    const float t = deg * static_cast<float>(M_PI) / 180.0f;
+    return rect_cell(id, {x, -0.5f, 10.0f - 0.25f * std::sin(t)}, 0.5f * kX,
+                     Eigen::Vector3f(0.0f, 0.5f * std::cos(t), 0.5f * std::sin(t)), bin);
+  };
+  auto frame = [&](std::uint64_t f) {
+    std::vector<Planecell> cells;
+    test::tile(cells, {0.0f, 0.0f, 10.0f}, kX, kY, 4.0f, 2.0f, 1.0f, 0.0f, 3);
+    if (f <= 1) {
+      cells.push_back(tilted(static_cast<std::uint32_t>(cells.size()), 0.2f, 20.0f, 3));
+      cells.push_back(tilted(static_cast<std::uint32_t>(cells.size()), 1.7f, 40.0f, 3));
+      cells.push_back(tilted(static_cast<std::uint32_t>(cells.size()), 3.2f, 20.0f, 12));
+    }
+    return cells;
+  };
+  GlobalMap map(config);
+  std::uint32_t wall = kNoSurface;
+  std::array<std::uint32_t, 3> fragment{}, fragment_cell{};
+  for (std::uint64_t f = 0; f <= 6; ++f) {
+    const auto cells = frame(f);
+    const auto report = map.integrate(f, Pose::Identity(), cells);
+    if (f == 0) {
+      wall = report.cell_surfaces[0];
+      for (std::size_t k = 0; k < 8; ++k) ASSERT_EQ(report.cell_surfaces[k], wall) << k;
+      for (std::size_t k = 0; k < 3; ++k) {
+        fragment[k] = report.cell_surfaces[8 + k];
+        fragment_cell[k] = report.added_cells[report.added_cells.size() - 3 + k];
+        ASSERT_NE(fragment[k], wall) << k;  // the CRF's 10° keeps each apart
+      }
+      ASSERT_EQ(std::set<std::uint32_t>(fragment.begin(), fragment.end()).size(), 3u);
+    }
+    if (f < 6) {
+      EXPECT_TRUE(report.surface_merges.empty()) << "frame " << f;
+      continue;
+    }
+    // The first fragment joins the wall (the older surface keeps its id) with its cell.
+    EXPECT_EQ(report.surface_merges, (std::vector<SurfaceMerge>{{6, fragment[0], wall}}));
+    EXPECT_EQ(report.removed_surfaces, (std::vector<std::uint32_t>{fragment[0]}));
+    EXPECT_EQ(report.relabelled_cells, (std::vector<std::uint32_t>{fragment_cell[0]}));
+    EXPECT_TRUE(std::binary_search(report.updated_surfaces.begin(), report.updated_surfaces.end(), wall));
+    EXPECT_TRUE(report.pruned_surfaces.empty());
+    EXPECT_EQ(map.surface(fragment[0]), nullptr);
+    ASSERT_NE(map.cell(fragment_cell[0]), nullptr);
+    EXPECT_EQ(map.cell(fragment_cell[0])->surface, wall);
+    const Surface& joined = *map.surface(wall);
+    EXPECT_EQ(joined.cells.back(), fragment_cell[0]);
+    EXPECT_EQ(joined.observations, 7u * 8u + 2u);
+    // Its plane stays the wall's: the fragment's points weigh little and straddle it.
+    EXPECT_GT(std::abs(joined.plane.normal.z()), std::cos(1.0 * M_PI / 180.0));
+    EXPECT_NEAR(std::abs(joined.plane.offset), 10.0, 0.01);
+    // Too steep, or another colour: dormant, each on its own.
+    for (std::size_t k : {1u, 2u}) {
+      ASSERT_NE(map.surface(fragment[k]), nullptr) << k;
+      EXPECT_FALSE(map.surface(fragment[k])->detail.has_value()) << k;
+      EXPECT_EQ(map.cell(fragment_cell[k])->surface, fragment[k]) << k;
+    }
+    EXPECT_EQ(report.dormant_surfaces, (std::vector<std::uint32_t>{fragment[1], fragment[2]}));
+  }
+  MapConfig off = config;
+  off.fragment_join_max_area_m2 = 0.0;
+  GlobalMap apart(off);
+  for (std::uint64_t f = 0; f <= 6; ++f)
+    EXPECT_TRUE(apart.integrate(f, Pose::Identity(), frame(f)).surface_merges.empty()) << f;
+  EXPECT_EQ(apart.surfaces().size(), map.surfaces().size() + 1);
+  MapConfig bad = config;
+  bad.fragment_join_angle_deg = 120.0;
+  EXPECT_CONTAINS(test::error_of<ConfigError>([&] { GlobalMap{bad}; }), "map.fragment_join_angle_deg (120");
+  bad.fragment_join_angle_deg = 30.0;
+  bad.fragment_join_max_area_m2 = std::nan("");
+  EXPECT_CONTAINS(test::error_of<ConfigError>([&] { GlobalMap{bad}; }), "map.fragment_join_max_area_m2");
+}
+
 TEST(Dormancy, NeverWhenOffAndNotBeforeConsolidation) {
   MapConfig off = QuietPatch::config();
   off.dormant_after_frames = 0;
