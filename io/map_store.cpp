@@ -132,6 +132,16 @@ MapStore::MapStore(const std::filesystem::path& path) : path_(path) {
       throw StorageError("map store '" + path.string() +
                          "': not a planecell map (not an SQLite database); left unchanged");
   }
+  // A write-ahead log beside a missing store is what is left of a deleted one (its writer was
+  // killed, or the store was removed while open): SQLite would replay it into the new store's
+  // pages and corrupt them ("database disk image is malformed" at the first commit).
+  if (!exists)
+    for (const char* suffix : {"-wal", "-journal"})
+      if (const std::filesystem::path orphan = path.string() + suffix; std::filesystem::exists(orphan, ec))
+        throw StorageError("map store '" + path.string() + "': no store there, but '" + orphan.string() +
+                           "' is left from a deleted one; restore the store or remove " +
+                           orphan.filename().string() + " (and " + path.filename().string() +
+                           "-shm) to start a new map");
   // A new store is built as <path>.creating and renamed into place once its schema is committed,
   // so a process killed while creating it never leaves a half-made file at `path` (which the
   // checks below would refuse as foreign). A stale .creating file from such a kill is replaced.

@@ -498,6 +498,40 @@ TEST(MapStoreTest, CorruptDeflatedSurfaceIsNamed) {
   EXPECT_CONTAINS(load_error(), "truncated");
 }
 
+TEST(MapStoreTest, LogLeftFromADeletedStoreIsRefusedNotReplayedIntoANewOne) {
+  test::ScratchDir dir;
+  const auto path = dir / "map.db";
+  const std::filesystem::path wal = path.string() + "-wal";
+  std::string log;
+  {
+    map::GlobalMap map;
+    MapStore store(path);
+    drive(map, 4, &store);
+    log = read_bytes(wal);  // the open store's log, as a killed writer leaves it
+  }
+  ASSERT_FALSE(log.empty());
+  std::filesystem::remove(path);
+  {
+    std::ofstream out(wal, std::ios::binary);
+    out.write(log.data(), static_cast<std::streamsize>(log.size()));
+  }
+  try {
+    MapStore store(path);
+    FAIL() << "expected StorageError";
+  } catch (const StorageError& e) {
+    EXPECT_CONTAINS(std::string(e.what()), "map store '" + path.string() + "': no store there, but '" +
+                                               wal.string() + "' is left from a deleted one");
+  }
+  EXPECT_FALSE(std::filesystem::exists(path));  // nothing created
+  EXPECT_EQ(read_bytes(wal), log);              // nor the log touched
+  // Removed, a new map starts there.
+  std::filesystem::remove(wal);
+  map::GlobalMap map;
+  MapStore store(path);
+  drive(map, 2, &store);
+  EXPECT_EQ(store.frame_count(), 2u);
+}
+
 TEST(MapStoreTest, TruncatedCopyIsRejected) {
   test::ScratchDir dir;
   const auto path = dir / "map.db";
