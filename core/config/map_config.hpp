@@ -58,8 +58,8 @@ struct MapConfig {
   /// cells, the larger of the two covers at least bridge_min_area_m2, the two pass the CRF's test
   /// for mature labels (normals within max_normal_angle_deg, step between the planes at the two
   /// cells' midpoint m ≤ max_plane_distance_m, colour), and the gap is hidden rather than seen
-  /// through: the camera ray behind m passes through no stored cell of a third surface (the
-  /// cells within 0.2 m of the ray 0.3–10 m beyond m, crossed within 5 cm of their polygon). On eight 100-frame synthetic streets (docs/PERFORMANCE.md, "Bridging
+  /// through: no stored cell of a third surface lies within 0.2 m of the camera ray behind m
+  /// (0.3–10 m beyond it). On eight 100-frame synthetic streets (docs/PERFORMANCE.md, "Bridging
   /// occlusion gaps between large surfaces") it raises the GT area in one label from 73.6 to
   /// 78.1 % on average at the same share of cells merged across GT planes (6.0 %).
   double bridge_gap_m = 5.0;

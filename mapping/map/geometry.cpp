@@ -114,14 +114,6 @@ double distance_to_polygon(const Eigen::Vector3d& point, const Plane3& plane,
   return distance_to_outline(point, plane, basis, to_polygon2(vertices, basis), vertices);
 }
 
-bool ray_passes_through(const Eigen::Vector3d& origin, const Eigen::Vector3d& direction, const Plane3& plane,
-                        std::span<const Eigen::Vector3f> vertices, double t_min, double tolerance_m) {
-  const double along = plane.normal.dot(direction);
-  if (std::abs(along) < 1e-9) return false;
-  const double t = -plane.signed_distance(origin) / along;
-  return t > t_min && distance_to_polygon(origin + t * direction, plane, vertices) <= tolerance_m;
-}
-
 double polygon_gap_m(const Plane3& plane_a, std::span<const Eigen::Vector3f> a,
                      const Plane3& plane_b, std::span<const Eigen::Vector3f> b) {
   if (a.size() < 3 || b.size() < 3) return std::numeric_limits<double>::infinity();

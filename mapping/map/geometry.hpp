@@ -130,13 +130,6 @@ struct BoxedRing {
 double distance_to_polygon(const Eigen::Vector3d& point, const Plane3& plane,
                            std::span<const Eigen::Vector3f> vertices);
 
-/// Whether the ray origin + t·direction (direction unit) passes through the planar polygon
-/// `vertices` on `plane` beyond t_min: it crosses the plane at t* = −(n·origin + e)/(n·direction)
-/// > t_min, and the crossing point lies within tolerance_m of the polygon (distance_to_polygon).
-/// False for a ray parallel to the plane.
-bool ray_passes_through(const Eigen::Vector3d& origin, const Eigen::Vector3d& direction, const Plane3& plane,
-                        std::span<const Eigen::Vector3f> vertices, double t_min, double tolerance_m);
-
 /// Smallest gap (m) between two planar polygons, approximated by the vertex-to-polygon distances
 /// both ways: min(min_k dist(a_k, B), min_k dist(b_k, A)). 0 when a vertex of one lies on the other.
 double polygon_gap_m(const Plane3& plane_a, std::span<const Eigen::Vector3f> a,

@@ -669,17 +669,13 @@ void GlobalMap::bridge_surfaces(std::span<const Planecell* const> fresh, std::sp
     const std::uint32_t s = report.cell_surfaces[fresh_input[k]];
     if (surfaces_.contains(s)) reached[s].push_back(k);
   }
-  // Hidden, not seen through: the camera ray behind m crosses no stored cell of a third surface.
-  // Hidden, not seen through: the camera ray behind m passes through no stored cell of a third
-  // surface (a cell near the ray that it does not cross, such as the road beside a sidewalk's
-  // gap, is no evidence either way).
+  // Hidden, not seen through: no stored cell of a third surface near the ray behind m.
   const auto hidden_behind = [&](const Eigen::Vector3d& m, std::uint32_t a, std::uint32_t b) {
     const Eigen::Vector3d ray = (m - camera_centre).normalized();
     for (double t = 0.3; t <= 10.0; t += 0.25)
       if (const auto hit = nearest_cell(m + t * ray, 0.2)) {
-        const MapCell& c = cells_.at(hit->cell_id);
-        if (c.surface != a && c.surface != b && ray_passes_through(m, ray, c.plane, c.vertices_m, 0.1, 0.05))
-          return false;
+        const std::uint32_t s = cells_.at(hit->cell_id).surface;
+        if (s != a && s != b) return false;
       }
     return true;
   };

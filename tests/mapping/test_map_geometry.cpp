@@ -30,24 +30,6 @@ TEST(MapGeometry, GapsBetweenHandPlacedSquares) {
   }
 }
 
-TEST(MapGeometry, RayThroughAPolygonByHand) {
-  // The unit square y = 1, x, z ∈ [0, 1] (a floor 1 m below the y = 0 line, y down).
-  const Planecell floor = rect_cell(0, {0, 1, 0}, kX, kZ, 0);
-  const Eigen::Vector3d origin(0.5, 0.0, -1.0);
-  // Towards (0.5, 1, 0.5): crosses y = 1 at t = |(0, 1, 1.5)| = 1.803 m, inside the square.
-  const Eigen::Vector3d down = Eigen::Vector3d(0.0, 1.0, 1.5).normalized();
-  EXPECT_TRUE(ray_passes_through(origin, down, floor.plane, floor.vertices_m, 0.1, 0.05));
-  EXPECT_TRUE(ray_passes_through(origin, down, floor.plane, floor.vertices_m, 1.8, 0.0));
-  EXPECT_FALSE(ray_passes_through(origin, down, floor.plane, floor.vertices_m, 1.81, 0.05));  // crossed before t_min
-  EXPECT_FALSE(ray_passes_through(origin, -down, floor.plane, floor.vertices_m, 0.0, 0.05));   // behind the origin
-  // Towards (0.5, 1, 1.1): crosses 0.1 m past the square's far edge z = 1.
-  const Eigen::Vector3d past = Eigen::Vector3d(0.0, 1.0, 2.1).normalized();
-  EXPECT_FALSE(ray_passes_through(origin, past, floor.plane, floor.vertices_m, 0.1, 0.05));
-  EXPECT_TRUE(ray_passes_through(origin, past, floor.plane, floor.vertices_m, 0.1, 0.11));
-  // Parallel to the floor, 1 m above it: near it (1 m) but never through it.
-  EXPECT_FALSE(ray_passes_through(origin, Eigen::Vector3d::UnitZ(), floor.plane, floor.vertices_m, 0.0, 2.0));
-}
-
 TEST(MapGeometry, PointToSegmentDistancesByHand) {
   const Eigen::Vector3d a(-1, 0, 0), b(1, 0, 0);
   // Foot of the perpendicular inside the segment: the distance is the height over it.
