@@ -757,7 +757,8 @@ bool GlobalMap::join_neighbour(Surface& surface, std::set<std::uint32_t>& touche
   for (std::uint32_t cell_id : surface.cells) {
     const MapCell& cell = cells_.at(cell_id);
     const Aabb box = bounds_of(cell.vertices_m);
-    index_.candidates(box.inflated(gap), nearby);
+    const Aabb near_box = box.inflated(gap);
+    index_.candidates(near_box, nearby);
     for (std::uint32_t other_cell_id : nearby) {
       const MapCell& old = cells_.at(other_cell_id);
       if (old.surface == surface.id || checked.contains(old.surface)) continue;
@@ -767,7 +768,7 @@ bool GlobalMap::join_neighbour(Surface& surface, std::set<std::uint32_t>& touche
         continue;
       }
       const Aabb old_box = bounds_of(old.vertices_m);
-      if (!box.inflated(gap).overlaps(old_box) ||
+      if (!near_box.overlaps(old_box) ||
           !polygons_within_m(cell.plane, cell.vertices_m, box, old.plane, old.vertices_m, old_box, gap))
         continue;
       checked.insert(old.surface);
@@ -785,9 +786,9 @@ bool GlobalMap::join_neighbour(Surface& surface, std::set<std::uint32_t>& touche
   if (!best) return false;
   const std::uint32_t other_id = best->id;
   wake(surfaces_.at(other_id));
-  wake(surface);
-  merge_surfaces(surface.id, state_of_surface(surface), other_id, state_of_surface(surfaces_.at(other_id)),
-                 touched, report);
+  // `surface` is live (it was going dormant): `self` is still its state; the neighbour's is taken
+  // after waking it.
+  merge_surfaces(surface.id, self, other_id, state_of_surface(surfaces_.at(other_id)), touched, report);
   return true;
 }
 

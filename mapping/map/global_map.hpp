@@ -285,17 +285,18 @@ class GlobalMap {
   /// on the dormancy clock; a live surface is left as it is.
   void wake(Surface& surface);
   /// MapConfig::dormant_after_frames: surfaces no observation has reached since
-  /// frame_id − dormant_after_frames drop their detail (report.dormant_surfaces), or are pruned
-  /// when they are redundant fragments (redundant_fragment; removed from `touched`).
+  /// frame_id − dormant_after_frames drop their detail (report.dormant_surfaces), unless they
+  /// join a neighbour (join_neighbour) or are pruned as redundant fragments (redundant_fragment;
+  /// removed from `touched`).
   void retire_quiet_surfaces(std::uint64_t frame_id, std::set<std::uint32_t>& touched, MergeReport& report);
   /// Folds surface a into b or b into a (the smaller id absorbs the larger, absorb_surface) and
   /// gives the result the folded label state (plane, moments, histogram); returns its id.
   std::uint32_t merge_surfaces(std::uint32_t a_id, LabelState a, std::uint32_t b_id, LabelState b,
                                std::set<std::uint32_t>& touched, MergeReport& report);
   /// MapConfig::fragment_join_max_area_m2: `surface`, going dormant, joins the largest larger
-  /// neighbouring surface (a stored cell within neighbour_gap_m) that passes the CRF's pair test
-  /// with it (CrfMerger::evaluate on the two nearest cells and the surfaces' states); true when
-  /// it did (`surface` may be gone).
+  /// neighbouring surface (a stored cell within neighbour_gap_m) whose plane its moments lie on
+  /// (RMS ≤ fragment_join_distance_m, normals within fragment_join_angle_deg, colour ≥
+  /// min_colour_similarity); true when it did (`surface` may be gone).
   bool join_neighbour(Surface& surface, std::set<std::uint32_t>& touched, MergeReport& report);
   /// MapConfig::fragment_max_area_m2: `surface` holds one stored cell of footprint area below
   /// it, whose centroid and vertices all lie within fragment_redundant_m of other surfaces' cells.
