@@ -1044,6 +1044,12 @@ void GlobalMap::retire_quiet_surfaces(std::uint64_t frame_id, std::set<std::uint
     surface.detail.reset();
     report.dormant_surfaces.push_back(id);
   }
+  // A later fragment's join may have woken a surface that went dormant above (it is live and
+  // touched again) or absorbed it (it is gone): neither is dormant any more.
+  std::erase_if(report.dormant_surfaces, [&](std::uint32_t id) {
+    const auto it = surfaces_.find(id);
+    return it == surfaces_.end() || it->second.detail;
+  });
   std::sort(report.dormant_surfaces.begin(), report.dormant_surfaces.end());
 }
 

@@ -749,6 +749,64 @@ TEST(Dormancy, AFragmentGoingDormantJoinsTheLargerNeighbourItLiesOn) {
   EXPECT_CONTAINS(test::error_of<ConfigError>([&] { GlobalMap{bad}; }), "map.fragment_join_max_area_m2");
 }
 
+/// The wall and a 20° fragment above its top edge (as above) going quiet in the same frame, the
+/// wall first: the fragment's join wakes the wall again, or absorbs it when the fragment is the
+/// older surface. Either way the wall must not be reported dormant (the store rewrites every
+/// reported surface and refuses one that is gone; a consumer would drop a live surface's detail).
+TEST(Dormancy, ASurfaceAFragmentJoinsInTheFrameItWentQuietIsNotReportedDormant) {
+  const MapConfig config = QuietPatch::config();  // dormant after 5 quiet frames
+  auto wall = [] {
+    std::vector<Planecell> cells;
+    test::tile(cells, {0.0f, 0.0f, 10.0f}, kX, kY, 4.0f, 2.0f, 1.0f, 0.0f, 3);
+    return cells;
+  };
+  const float t = 20.0f * static_cast<float>(M_PI) / 180.0f;
+  auto with_fragment = [&](std::vector<Planecell> cells) {
+    cells.push_back(rect_cell(static_cast<std::uint32_t>(cells.size()), {0.2f, -0.5f, 10.0f - 0.25f * std::sin(t)},
+                              0.5f * kX, Eigen::Vector3f(0.0f, 0.5f * std::cos(t), 0.5f * std::sin(t)), 3));
+    return cells;
+  };
+  // Every reported dormant surface is in the map without its detail; every updated one is in it.
+  auto check = [](const GlobalMap& map, const MergeReport& report) {
+    for (std::uint32_t id : report.dormant_surfaces) {
+      ASSERT_NE(map.surface(id), nullptr) << "dormant " << id;
+      EXPECT_FALSE(map.surface(id)->detail.has_value()) << "dormant " << id;
+    }
+    for (std::uint32_t id : report.updated_surfaces) EXPECT_NE(map.surface(id), nullptr) << "updated " << id;
+  };
+  {  // The wall is older (smaller id): woken as the merged surface.
+    GlobalMap map(config);
+    const auto first = map.integrate(0, Pose::Identity(), with_fragment(wall()));
+    const std::uint32_t wall_id = first.cell_surfaces[0], fragment_id = first.cell_surfaces[8];
+    ASSERT_LT(wall_id, fragment_id);
+    map.integrate(1, Pose::Identity(), with_fragment(wall()));
+    const auto report = map.integrate(6, Pose::Identity(), {});  // both quiet since frame 1
+    check(map, report);
+    EXPECT_EQ(report.surface_merges, (std::vector<SurfaceMerge>{{6, fragment_id, wall_id}}));
+    EXPECT_TRUE(report.dormant_surfaces.empty());
+    ASSERT_NE(map.surface(wall_id), nullptr);
+    EXPECT_TRUE(map.surface(wall_id)->detail.has_value());
+    EXPECT_TRUE(std::binary_search(report.updated_surfaces.begin(), report.updated_surfaces.end(), wall_id));
+  }
+  {  // The fragment is older and seen last: the wall goes quiet first and is then absorbed.
+    GlobalMap map(config);
+    const auto first = map.integrate(0, Pose::Identity(), with_fragment({}));
+    const std::uint32_t fragment_id = first.cell_surfaces[0];
+    const auto second = map.integrate(1, Pose::Identity(), with_fragment(wall()));
+    const std::uint32_t wall_id = second.cell_surfaces[0];
+    ASSERT_LT(fragment_id, wall_id);
+    ASSERT_EQ(second.cell_surfaces[8], fragment_id);  // the CRF's 10° keeps it apart
+    map.integrate(2, Pose::Identity(), with_fragment({}));
+    map.integrate(5, Pose::Identity(), {});  // the fragment's clock moves on to frame 2
+    const auto report = map.integrate(8, Pose::Identity(), {});  // the wall quiet since 1, the fragment since 2
+    check(map, report);
+    EXPECT_EQ(report.surface_merges, (std::vector<SurfaceMerge>{{8, wall_id, fragment_id}}));
+    EXPECT_EQ(map.surface(wall_id), nullptr);
+    EXPECT_TRUE(report.dormant_surfaces.empty());
+    EXPECT_EQ(map.surface(fragment_id)->cells.size(), 9u);
+  }
+}
+
 TEST(Dormancy, NeverWhenOffAndNotBeforeConsolidation) {
   MapConfig off = QuietPatch::config();
   off.dormant_after_frames = 0;
