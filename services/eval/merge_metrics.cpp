@@ -45,7 +45,8 @@ void MergeEvaluator::add_frame(const cv::Mat& labels, const cv::Mat& gt_surface_
       continue;
     }
     samples_.push_back({best->first, static_cast<float>(map::polygon_area_m2(cells_world[i].vertices_m)),
-                        report.cell_surfaces[i]});
+                        report.cell_surfaces[i], cells_world[i].depth_sigma_m,
+                        map::vertex_centroid(cells_world[i].vertices_m).cast<float>()});
     if (const auto plane = gt_planes_.find(best->first); plane != gt_planes_.end() && !cells_world[i].vertices_m.empty()) {
       // θ' with σ = 1 m: the RMS distance of the vertices to the GT plane, in metres.
       plane_errors_m_.push_back(static_cast<float>(map::plane_residual(plane->second, cells_world[i].vertices_m, 1.0)));
@@ -127,16 +128,28 @@ MergeMetrics MergeEvaluator::finish() const {
     const auto it = groups_.find(gt);
     return it == groups_.end() ? gt : it->second;
   };
-  std::size_t crossed = 0, crossed_planes = 0;
+  // Whether a cell's depth resolves its own GT plane from its label's (see the field's doc).
+  const auto resolvable = [this](const Sample& s, std::uint16_t dominant) {
+    const auto own = gt_planes_.find(s.gt), other = gt_planes_.find(dominant);
+    if (own == gt_planes_.end() || other == gt_planes_.end()) return true;
+    const Eigen::Vector3d c = s.centroid.cast<double>();
+    const Eigen::Vector3d p = c - own->second.signed_distance(c) * own->second.normal;
+    return std::abs(other->second.signed_distance(p)) > 2.0 * static_cast<double>(s.depth_sigma_m);
+  };
+  std::size_t crossed = 0, crossed_planes = 0, crossed_resolvable = 0;
   for (std::size_t k = 0; k < kept.size(); ++k) {
     const std::uint16_t dominant = dominant_gt.at(final_labels[k]);
     if (dominant != kept[k]->gt) ++crossed;
-    if (group(dominant) != group(kept[k]->gt)) ++crossed_planes;
+    if (group(dominant) != group(kept[k]->gt)) {
+      ++crossed_planes;
+      if (resolvable(*kept[k], dominant)) ++crossed_resolvable;
+    }
   }
   m.cells = kept.size();
   if (!kept.empty()) {
     m.cross_merged_cells = static_cast<double>(crossed) / static_cast<double>(kept.size());
     m.cross_merged_cells_between_planes = static_cast<double>(crossed_planes) / static_cast<double>(kept.size());
+    m.cross_merged_cells_resolvable = static_cast<double>(crossed_resolvable) / static_cast<double>(kept.size());
   }
   return m;
 }

@@ -34,6 +34,15 @@ struct MergeMetrics {
   /// plane several ids (the road of each leg, flush facades of neighbouring buildings), and
   /// merging those is what the CRF is for. Equals cross_merged_cells without planes.
   double cross_merged_cells_between_planes = 0.0;
+  /// Of those, the share (of all counted cells) the cell's own depth could have told apart: the
+  /// cell's vertex centroid c, moved onto its GT surface's plane (p = c − (n_g·c + e_g) n_g), lies
+  /// more than 2 σ_Z (Planecell::depth_sigma_m) from the plane of its label's dominant GT surface,
+  /// |n_d·p + e_d| > 2 σ_Z. A door 3 cm proud of its facade, a 15 cm sidewalk step seen from
+  /// 15 m (σ_Z ≈ 27 cm) or two parked cars' coplanar sides are not; a cell merged across a step
+  /// or a corner larger than its noise is. Needs the GT planes (set_gt_surface_planes); a cell
+  /// whose GT planes are unknown counts as resolvable. A diagnostic beside the target's figure
+  /// above, which it does not replace.
+  double cross_merged_cells_resolvable = 0.0;
   // --- the cells' planes against their GT surface's plane (MergeEvaluator::set_gt_surface_planes) --
   /// Cells measured: pure cells (as above, those of later pruned surfaces included) whose GT
   /// surface has a known plane; 0 = no GT planes.
@@ -86,6 +95,8 @@ class MergeEvaluator {
     std::uint16_t gt = 0;
     float area_m2 = 0.0f;
     std::uint32_t label = 0;
+    float depth_sigma_m = 0.0f;              ///< the cell's σ_Z
+    Eigen::Vector3f centroid = Eigen::Vector3f::Zero();  ///< its vertex centroid (world)
   };
   std::uint32_t final_label(std::uint32_t label) const;
 

@@ -75,6 +75,49 @@ TEST(MergeMetrics, MergingCoplanarGtSurfacesIsNotCrossMergingBetweenPlanes) {
   EXPECT_NEAR(m.cross_merged_cells_between_planes, 0.25, 1e-9);
 }
 
+/// `cell` lifted by z_m, with depth noise sigma_m.
+Planecell lifted(Planecell cell, float z_m, float sigma_m) {
+  for (auto& v : cell.vertices_m) v.z() += z_m;
+  cell.depth_sigma_m = sigma_m;
+  return cell;
+}
+
+TEST(MergeMetrics, CrossMergesBeyondTwiceTheCellsDepthNoiseAreTheResolvableOnes) {
+  // GT 1: the plane z = 0; GT 2: z = 0.15 (a sidewalk step); GT 3: z = 0.03 (a door proud of a
+  // wall). Every frame puts a 2 m² cell of GT 1 and one 1 m² cell of another GT surface in label
+  // 10, which GT 1 dominates (6 m² of 9).
+  MergeEvaluator eval;
+  Plane3 z0, z15, z3;
+  z0.normal = z15.normal = z3.normal = Eigen::Vector3d::UnitZ();
+  z15.offset = -0.15;
+  z3.offset = -0.03;
+  eval.set_gt_surface_planes({{1, z0}, {2, z15}, {3, z3}});
+  map::MergeReport report;
+  report.cell_surfaces = {10, 10};
+  cv::Mat labels, gt;
+  auto frame = [&](std::uint16_t other_gt, const Planecell& other) {
+    halves(labels, gt, 0, 1, 1, other_gt);
+    eval.add_frame(labels, gt, std::vector<Planecell>{lifted(square(0, std::sqrt(2.0f)), 0.0f, 0.05f), other}, report);
+  };
+  // The step seen with σ_Z 5 cm (2σ = 10 cm < 15 cm: resolvable; the cell measured 10 cm too
+  // high is moved onto its GT plane first), then with σ_Z 10 cm (20 cm > 15 cm: not), and the
+  // door with σ_Z 1 cm (2 cm < 3 cm: resolvable) and 2 cm (4 cm > 3 cm: not).
+  frame(2, lifted(square(1, 1.0f), 0.25f, 0.05f));
+  frame(2, lifted(square(1, 1.0f), 0.15f, 0.10f));
+  frame(3, lifted(square(1, 1.0f), 0.03f, 0.01f));
+  frame(3, lifted(square(1, 1.0f), 0.03f, 0.02f));
+  const MergeMetrics m = eval.finish();
+  ASSERT_EQ(m.cells, 8u);
+  EXPECT_NEAR(m.cross_merged_cells_between_planes, 4.0 / 8.0, 1e-9);
+  EXPECT_NEAR(m.cross_merged_cells_resolvable, 2.0 / 8.0, 1e-9);
+  // Without GT planes every cross-merge counts as resolvable.
+  MergeEvaluator no_planes;
+  halves(labels, gt, 0, 1, 1, 3);
+  no_planes.add_frame(labels, gt, std::vector<Planecell>{square(0, std::sqrt(2.0f)), lifted(square(1, 1.0f), 0.03f, 0.02f)},
+                      report);
+  EXPECT_NEAR(no_planes.finish().cross_merged_cells_resolvable, 0.5, 1e-9);
+}
+
 TEST(MergeMetrics, CellMergedIntoAnotherGtSurfacesLabelIsCrossMerged) {
   MergeEvaluator eval;
   cv::Mat labels, gt;
