@@ -412,13 +412,13 @@ nlohmann::json to_json(const ReplayReport& r) {
         {"labels", m.labels}, {"area_in_dominant_label", m.area_in_dominant_label},
         {"area_one_label", m.area_one_label}, {"cross_merged_cells", m.cross_merged_cells},
         {"cross_merged_cells_between_planes", m.cross_merged_cells_between_planes}};
-    if (m.plane_error_cells > 0)  // GT planes known
+    if (m.plane_error_cells > 0) {  // GT planes known
       out["merge_vs_ground_truth"]["cross_merged_cells_resolvable"] = m.cross_merged_cells_resolvable;
-    if (m.plane_error_cells > 0)
       out["cell_planes_vs_ground_truth"] = {
           {"cells", m.plane_error_cells}, {"rms_distance_median_m", m.plane_error_median_m},
           {"rms_distance_p90_m", m.plane_error_p90_m}, {"depth_sigma_median_m", m.depth_sigma_median_m},
           {"rms_distance_over_depth_sigma_median", m.plane_error_over_sigma_median}};
+    }
   }
   if (r.map_completeness) {
     const auto& c = *r.map_completeness;
@@ -469,10 +469,9 @@ std::string summary_text(const ReplayReport& r) {
         << " % of cells merged across GT surfaces, " << 100.0 * m.cross_merged_cells_between_planes
         << " % across GT planes (" << m.gt_surfaces << " GT surfaces -> " << m.labels
         << " labels, " << m.cells << " cells, " << m.mixed_cells << " mixed cells left out)\n";
-    if (m.plane_error_cells > 0)
+    if (m.plane_error_cells > 0) {
       out << "  merged across GT planes further than 2 sigma_Z (the cell's own depth noise) from its GT plane: "
           << 100.0 * m.cross_merged_cells_resolvable << " % of cells\n";
-    if (m.plane_error_cells > 0) {
       out.precision(3);
       out << "  cell planes vs GT planes: RMS vertex distance median " << m.plane_error_median_m << " m, p90 "
           << m.plane_error_p90_m << " m; modelled depth noise sigma_Z median " << m.depth_sigma_median_m

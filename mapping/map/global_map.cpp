@@ -1020,6 +1020,9 @@ void GlobalMap::retire_quiet_surfaces(std::uint64_t frame_id, std::set<std::uint
                                       MergeReport& report) {
   if (config_.dormant_after_frames <= 0) return;
   const auto quiet = static_cast<std::uint64_t>(config_.dormant_after_frames);
+  // Surfaces due to go dormant drop their detail only after every due fragment has had its
+  // join: a fragment may still join one of them (wakes it: observed now) or be joined by it.
+  std::vector<std::uint32_t> due;
   while (!dormancy_clock_.empty() && dormancy_clock_.top().first + quiet <= frame_id) {
     const std::uint32_t id = dormancy_clock_.top().second;
     dormancy_clock_.pop();
@@ -1040,16 +1043,20 @@ void GlobalMap::retire_quiet_surfaces(std::uint64_t frame_id, std::set<std::uint
       touched.erase(id);
       continue;
     }
+    due.push_back(id);
+  }
+  for (std::uint32_t id : due) {
+    const auto it = surfaces_.find(id);
+    if (it == surfaces_.end()) continue;  // absorbed by a later fragment's join
+    Surface& surface = it->second;
+    if (surface.last_observed_frame + quiet > frame_id) {  // a fragment joined it: live, due later
+      dormancy_clock_.emplace(surface.last_observed_frame, id);
+      continue;
+    }
     surface.quiet_moments = quiet_moments_of(moments_of(surface));
     surface.detail.reset();
     report.dormant_surfaces.push_back(id);
   }
-  // A later fragment's join may have woken a surface that went dormant above (it is live and
-  // touched again) or absorbed it (it is gone): neither is dormant any more.
-  std::erase_if(report.dormant_surfaces, [&](std::uint32_t id) {
-    const auto it = surfaces_.find(id);
-    return it == surfaces_.end() || it->second.detail;
-  });
   std::sort(report.dormant_surfaces.begin(), report.dormant_surfaces.end());
 }
 
