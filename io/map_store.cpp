@@ -343,12 +343,25 @@ void MapStore::commit_frame(std::uint64_t frame_id, const Pose& T_world_cam,
       }
       run(s, failed);
     }
+    write_changes(frame, report, map);
+    // Cells of this frame are not consolidated yet: the map is no longer settled.
+    exec("DELETE FROM meta WHERE key = 'settled_frame'");
+    if (sqlite3_exec(db_, "COMMIT", nullptr, nullptr, nullptr) != SQLITE_OK) failed();
+  } catch (...) {
+    sqlite3_exec(db_, "ROLLBACK", nullptr, nullptr, nullptr);
+    throw;
+  }
+}
+
+void MapStore::write_changes(const std::string& what, const map::MergeReport& report,
+                             const map::GlobalMap& map) {
+  auto failed = [&] { fail("cannot commit " + what); };
     {
       Statement cell(db_, "INSERT INTO cells VALUES (?, ?, ?, ?, ?, ?, ?)", *this);
       Statement bounds(db_, "INSERT INTO cell_bounds VALUES (?, ?, ?, ?, ?, ?, ?)", *this);
       for (std::uint32_t id : report.added_cells) {
         const map::MapCell* c = map.cell(id);
-        if (!c) fail(frame + ": added cell " + std::to_string(id) + " is not in the map");
+        if (!c) fail(what + ": added cell " + std::to_string(id) + " is not in the map");
         Writer rgb;
         rgb.put_matrix(c->mean_rgb);
         cell.bind(1, std::int64_t{id})
@@ -370,7 +383,7 @@ void MapStore::commit_frame(std::uint64_t frame_id, const Pose& T_world_cam,
       Statement relabel(db_, "UPDATE cells SET surface = ? WHERE id = ?", *this);
       for (std::uint32_t id : report.relabelled_cells) {
         const map::MapCell* c = map.cell(id);
-        if (!c) fail(frame + ": relabelled cell " + std::to_string(id) + " is not in the map");
+        if (!c) fail(what + ": relabelled cell " + std::to_string(id) + " is not in the map");
         relabel.bind(1, std::int64_t{c->surface}).bind(2, std::int64_t{id});
         run(relabel, failed);
       }
@@ -394,7 +407,7 @@ void MapStore::commit_frame(std::uint64_t frame_id, const Pose& T_world_cam,
       for (const auto* ids : {&report.updated_surfaces, &report.dormant_surfaces})
         for (std::uint32_t id : *ids) {
           const map::Surface* s = map.surface(id);
-          if (!s) fail(frame + ": updated surface " + std::to_string(id) + " is not in the map");
+          if (!s) fail(what + ": updated surface " + std::to_string(id) + " is not in the map");
           upsert.bind(1, std::int64_t{id}).bind(2, map_codec::encode_surface(*s));
           run(upsert, failed);
         }
@@ -410,6 +423,24 @@ void MapStore::commit_frame(std::uint64_t frame_id, const Pose& T_world_cam,
       meta.bind(1, std::to_string(map.next_surface_id())).bind(2, std::string("next_surface_id"));
       run(meta, failed);
     }
+}
+
+void MapStore::commit_settle(const map::MergeReport& report, const map::GlobalMap& map) {
+  const std::string what = "the settling after frame " + std::to_string(report.frame_id);
+  exec("BEGIN IMMEDIATE");
+  try {
+    auto failed = [&] { fail("cannot commit " + what); };
+    {
+      Statement last(db_, "SELECT count(*), max(frame_id) FROM frames", *this);
+      int rc = SQLITE_OK;
+      if (!last.step(rc)) failed();
+      if (last.integer(0) == 0 || static_cast<std::uint64_t>(last.integer(1)) != report.frame_id)
+        fail(what + ": it is not the store's last frame");
+    }
+    write_changes(what, report, map);
+    Statement meta(db_, "INSERT OR REPLACE INTO meta(key, value) VALUES ('settled_frame', ?)", *this);
+    meta.bind(1, std::to_string(report.frame_id));
+    run(meta, failed);
     if (sqlite3_exec(db_, "COMMIT", nullptr, nullptr, nullptr) != SQLITE_OK) failed();
   } catch (...) {
     sqlite3_exec(db_, "ROLLBACK", nullptr, nullptr, nullptr);
@@ -465,6 +496,11 @@ StoredMap MapStore::load() const {
     Statement last(db_, "SELECT count(*), max(frame_id) FROM frames", *this);
     if (!last.step(rc)) fail("cannot read frames");
     if (last.integer(0) > 0) out.last_frame_id = static_cast<std::uint64_t>(last.integer(1));
+  }
+  {
+    Statement settled(db_, "SELECT value FROM meta WHERE key = 'settled_frame'", *this);
+    if (settled.step(rc)) out.settled = out.last_frame_id && settled.text(0) == std::to_string(*out.last_frame_id);
+    else if (rc != SQLITE_DONE) fail("cannot read meta");
   }
   return out;
 }

@@ -1,7 +1,8 @@
 #pragma once
 /// Durable store of the global planecell map: SQLite in WAL mode, one transaction per frame.
 ///
-/// Schema: meta(key, value) with format = 'planecell-map', version and the map's id counters;
+/// Schema: meta(key, value) with format = 'planecell-map', version, the map's id counters and
+/// settled_frame (present while the map is settled after that frame, GlobalMap::settle);
 /// frames(frame_id, pose, counts, input_pose: the odometry pose before refinement, NULL when the
 /// pose was used as given); cells(id, frame_id, surface, fields as columns, plane and polygon as
 /// little-endian blobs); cell_bounds (R*Tree on each cell's 3D bounds); surfaces(id, blob: the
@@ -33,6 +34,8 @@ struct StoredMap {
   std::uint32_t next_cell_id = 0;
   std::uint32_t next_surface_id = 0;
   std::optional<std::uint64_t> last_frame_id;  ///< the last committed frame; none in a new store
+  /// The map was settled after last_frame_id (MapStore::commit_settle) and no frame came since.
+  bool settled = false;
 };
 
 /// Bytes of the store's pages by what they hold (MapStore::bytes_by_part): SQLite pages of each
@@ -70,6 +73,13 @@ class MapStore {
   void commit_frame(std::uint64_t frame_id, const Pose& T_world_cam, const map::MergeReport& report,
                     const map::GlobalMap& map, const std::optional<Pose>& input_pose = std::nullopt);
 
+  /// Writes the report of GlobalMap::settle (after the store's last frame, report.frame_id) in one
+  /// transaction, like a frame's changes but without a frame row, and marks the store settled
+  /// after that frame (meta 'settled_frame'; the next commit_frame clears it). StorageError when
+  /// report.frame_id is not the store's last frame or the write fails (rolled back, the store is
+  /// left as it was).
+  void commit_settle(const map::MergeReport& report, const map::GlobalMap& map);
+
   /// Rewrites the database without free pages and with full B-tree pages (the R*Tree rebuilt in
   /// cell id order, then SQLite VACUUM), for the end of a session: frames committed one by one
   /// leave pages of updated surfaces and R*Tree nodes of deleted cells part-empty.
@@ -101,6 +111,9 @@ class MapStore {
   /// The pose blob `sql` selects for `frame_id` (one `?`); nullopt when no row or NULL.
   std::optional<Pose> read_pose(const char* sql, std::uint64_t frame_id, const char* what) const;
   void exec(const char* sql) const;
+  /// The report's cell and surface changes, merge events and id counters (inside a transaction);
+  /// `what` names the commit in errors.
+  void write_changes(const std::string& what, const map::MergeReport& report, const map::GlobalMap& map);
 
   std::filesystem::path path_;
   sqlite3* db_ = nullptr;
@@ -110,7 +123,8 @@ class MapStore {
 inline map::GlobalMap load_map(const MapStore& store, const MapConfig& config = {}) {
   StoredMap stored = store.load();
   return map::GlobalMap::restore(config, std::move(stored.cells), std::move(stored.surfaces),
-                                 stored.next_cell_id, stored.next_surface_id, stored.last_frame_id);
+                                 stored.next_cell_id, stored.next_surface_id, stored.last_frame_id,
+                                 stored.settled);
 }
 
 }  // namespace planecell::io

@@ -172,6 +172,9 @@ ReplayReport run_replay(const ReplayOptions& options, const AppConfig& config) {
   if (config.refine.enabled && !options.threads) refinement.emplace(config.refine);
 
   double plane_fraction_sum = 0.0;
+  /// The last frame in the map (this run's or the store's): the map is settled after it.
+  std::optional<std::uint64_t> last_mapped;
+  if (!committed.empty()) last_mapped = *committed.rbegin();
   auto sample_memory = [&](std::size_t map_bytes) {
     report.memory.push_back({report.frames, ms_since(start) / 1000.0, resident_bytes(), map_bytes});
   };
@@ -208,6 +211,7 @@ ReplayReport run_replay(const ReplayOptions& options, const AppConfig& config) {
       }
     }
     ++report.frames;
+    last_mapped = std::max(last_mapped.value_or(0), work.frame_id);
     report.cells_extracted += work.cells.cells.size();
     report.fused_cells += work.merge.fused_cells;
     report.redundant_cells += work.merge.redundant_cells;
@@ -293,6 +297,26 @@ ReplayReport run_replay(const ReplayOptions& options, const AppConfig& config) {
     report.stage_cost = stats.stage_cost;
   }
   progress.finish();
+  // The map as the last frame left it, then settled (map.settle_at_close) and committed.
+  report.map_bytes_live = global_map.map_bytes();
+  if (const auto settled = settle_stage(global_map, store.get(), last_mapped)) {
+    report.settled = true;
+    report.consolidated_cells += settled->consolidated_cells;
+    report.pruned_surfaces += settled->pruned_surfaces.size();
+    report.surface_merges += settled->surface_merges.size();
+    if (merge_evaluator) merge_evaluator->add_map_changes(*settled);
+    if (options.sinks.publish) {  // the map's consumers follow the settling like a frame
+      FrameWork work;
+      work.frame_id = settled->frame_id;
+      work.merge = *settled;
+      if (options.sinks.want_delta) {
+        work.delta = make_delta(work.merge, global_map);
+        work.delta.settled = true;
+      }
+      work.map_cells = global_map.cells().size();
+      options.sinks.publish(work);
+    }
+  }
   report.map_parts = global_map.map_bytes_by_part();
   report.map_bytes = report.map_parts.total();
   if (options.memory_sample_every > 0 && (report.memory.empty() || report.memory.back().frames != report.frames))
@@ -371,6 +395,8 @@ nlohmann::json to_json(const ReplayReport& r) {
                         {"pruned_surfaces", r.pruned_surfaces},
                         {"surface_merges", r.surface_merges},
                         {"map_bytes", r.map_bytes},
+                        {"map_bytes_live", r.map_bytes_live},
+                        {"settled", r.settled},
                         {"store_bytes", r.store_bytes},
                         {"bytes_per_frame", r.bytes_per_frame},
                         {"stage_latency", stages},
@@ -459,7 +485,9 @@ std::string summary_text(const ReplayReport& r) {
       << r.surface_merges << " surface merges, " << r.pruned_surfaces
       << " unconfirmed surfaces pruned\n";
   out << "  size: " << r.map_bytes / 1024.0 << " KiB in RAM (" << r.bytes_per_frame / 1024.0
-      << " KiB/frame)";
+      << " KiB/frame";
+  if (r.settled) out << "; settled at the end, " << r.map_bytes_live / 1024.0 << " KiB after the last frame";
+  out << ")";
   if (r.store_bytes > 0) out << ", store " << r.store_bytes / 1024.0 << " KiB on disk";
   out << "\n";
   if (r.merge_metrics) {

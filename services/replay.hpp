@@ -89,7 +89,11 @@ struct ReplayReport {
       0;                            ///< old cells united into fewer (map.consolidate_after_frames)
   std::size_t pruned_surfaces = 0;  ///< single-observation surfaces pruned as unconfirmed
   std::size_t surface_merges = 0;
-  std::size_t map_bytes = 0;       ///< global map in RAM (GlobalMap::map_bytes)
+  std::size_t map_bytes = 0;       ///< global map in RAM (GlobalMap::map_bytes), settled
+  /// map_bytes after the last frame, before the map was settled (map.settle_at_close): with the
+  /// last frames' working set (live surfaces' detail, cells not yet consolidated).
+  std::size_t map_bytes_live = 0;
+  bool settled = false;            ///< the map was settled at the end (GlobalMap::settle)
   map::MapBytes map_parts;         ///< map_bytes by part (GlobalMap::map_bytes_by_part)
   std::size_t store_bytes = 0;     ///< map store on disk (database + WAL), 0 without --map
   /// The compacted store's pages by table (close_store); nullopt without --map.

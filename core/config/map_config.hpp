@@ -141,6 +141,14 @@ struct MapConfig {
   /// cover it to within a bit. Must be ≥ consolidate_after_frames (a surface is consolidated
   /// before it goes dormant). 10, as consolidate_after_frames. 0 = never.
   int dormant_after_frames = 10;
+  /// At the end of a replay or a `run` session the map is settled (GlobalMap::settle): every
+  /// cell not yet consolidated is, and every live surface goes dormant (or joins a neighbour, or
+  /// is pruned as a redundant fragment) as it would over the next frames if none reached it. The
+  /// store records it (MapStore::commit_settle) and LCM subscribers receive it as one more
+  /// update. The last frames' working set (detail, young cells) is then not kept in RAM or in
+  /// the store. A later session resumes from the settled map. false = leave the map as the last
+  /// frame left it.
+  bool settle_at_close = true;
   /// A surface going dormant that holds one stored cell covering less than this area (m²), every
   /// vertex and the centroid of which lie within fragment_redundant_m of another surface's stored
   /// cells (distance_to_polygon), is pruned instead (MergeReport::pruned_surfaces): a fragment the
@@ -199,6 +207,7 @@ void visit_fields(MapConfig& c, Visitor&& visit) {
   visit("consolidate_max_hole_m2", c.consolidate_max_hole_m2);
   visit("consolidate_max_distance_m", c.consolidate_max_distance_m);
   visit("dormant_after_frames", c.dormant_after_frames);
+  visit("settle_at_close", c.settle_at_close);
   visit("fragment_max_area_m2", c.fragment_max_area_m2);
   visit("fragment_redundant_m", c.fragment_redundant_m);
   visit("fragment_join_max_area_m2", c.fragment_join_max_area_m2);

@@ -96,6 +96,7 @@ planecell_lcm::map_update_t decode_map_update(std::span<const std::uint8_t> byte
     at = check_count(bytes, at, element, what, &count);
     at += element * static_cast<std::size_t>(count);
   }
+  at += 1;  // settled (boolean)
   if (at != bytes.size()) decode_failed(what, bytes.size());
   return decode_checked<planecell_lcm::map_update_t>(bytes, what);
 }
@@ -345,6 +346,7 @@ std::vector<planecell_lcm::map_update_t> encode_map_update(const MapUpdate& upda
     planecell_lcm::map_update_t m{};
     m.utime = utime;
     m.frame_id = static_cast<std::int64_t>(update.frame_id);
+    m.settled = update.settled;
     m.next_cell_id = static_cast<std::int32_t>(update.next_cell_id);
     m.next_surface_id = static_cast<std::int32_t>(update.next_surface_id);
     m.map_cells = static_cast<std::int32_t>(update.map_cells);
@@ -404,7 +406,9 @@ std::vector<planecell_lcm::map_update_t> encode_map_update(const MapUpdate& upda
 }
 
 std::optional<MapUpdate> MapUpdateAssembler::add(const planecell_lcm::map_update_t& m) {
-  const std::string name = "map_update_t of frame " + std::to_string(m.frame_id);
+  const std::string name =
+      std::string(m.settled ? "map_update_t settling the map after frame " : "map_update_t of frame ") +
+      std::to_string(m.frame_id);
   if (m.frame_id < 0) throw InputError(name + ": negative frame id");
   if (m.chunk_count < 1 || m.chunk_count > 100000 || m.chunk_index < 0 || m.chunk_index >= m.chunk_count)
     throw InputError(name + ": chunk " + std::to_string(m.chunk_index) + " of " + std::to_string(m.chunk_count));
@@ -417,13 +421,17 @@ std::optional<MapUpdate> MapUpdateAssembler::add(const planecell_lcm::map_update
       m.num_removed_surfaces != static_cast<std::int32_t>(m.removed_surfaces.size()))
     throw InputError(name + ": list counts disagree with the arrays");
   const auto frame = static_cast<std::uint64_t>(m.frame_id);
-  if (last_complete_ && frame <= *last_complete_)
-    throw InputError(name + ": out of order (frame " + std::to_string(*last_complete_) + " already applied)");
-  if (pending_frame_ && frame < *pending_frame_)
-    throw InputError(name + ": out of order (frame " + std::to_string(*pending_frame_) + " under way)");
-  if (!pending_frame_ || frame > *pending_frame_) {
+  const UpdateKey key{frame, m.settled != 0};
+  auto key_name = [](const UpdateKey& k) {
+    return (k.second ? "the settling after frame " : "frame ") + std::to_string(k.first);
+  };
+  if (last_complete_ && key <= *last_complete_)
+    throw InputError(name + ": out of order (" + key_name(*last_complete_) + " already applied)");
+  if (pending_frame_ && key < *pending_frame_)
+    throw InputError(name + ": out of order (" + key_name(*pending_frame_) + " under way)");
+  if (!pending_frame_ || key > *pending_frame_) {
     if (pending_frame_) ++incomplete_frames_;  // the frame under way lost chunks
-    pending_frame_ = frame;
+    pending_frame_ = key;
     pending_.clear();
     pending_count_ = m.chunk_count;
   }
@@ -437,6 +445,7 @@ std::optional<MapUpdate> MapUpdateAssembler::add(const planecell_lcm::map_update
 
   MapUpdate update;
   update.frame_id = frame;
+  update.settled = key.second;
   for (const auto& [index, chunk] : pending_) {
     for (const auto& cell : chunk.added) update.added_cells.push_back(from_lcm(cell));
     for (int i = 0; i < chunk.num_relabelled; ++i)
@@ -452,7 +461,7 @@ std::optional<MapUpdate> MapUpdateAssembler::add(const planecell_lcm::map_update
     update.map_cells = static_cast<std::size_t>(std::max(0, chunk.map_cells));
     update.map_surfaces = static_cast<std::size_t>(std::max(0, chunk.map_surfaces));
   }
-  last_complete_ = frame;
+  last_complete_ = key;
   pending_frame_.reset();
   pending_.clear();
   return update;
@@ -477,7 +486,7 @@ void MapMirror::apply(const MapUpdate& update) {
   for (const auto id : update.removed_cells) cells.erase(id);
   next_cell_id = update.next_cell_id;
   next_surface_id = update.next_surface_id;
-  ++frames;
+  if (!update.settled) ++frames;
   last_frame_id = update.frame_id;
 }
 

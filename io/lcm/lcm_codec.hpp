@@ -66,7 +66,7 @@ std::vector<planecell_lcm::map_update_t> encode_map_update(const MapUpdate& upda
                                                            std::size_t max_bytes = kMaxLcmMessageBytes);
 
 /// Collects the chunks of map updates back into whole updates. Frames must arrive in increasing
-/// frame-id order; a chunk of an older frame, a duplicate or inconsistent chunk raises InputError
+/// frame-id order (a frame's settling update after the frame's own); a chunk of an older frame, a duplicate or inconsistent chunk raises InputError
 /// (the caller counts and skips it). A frame whose chunks stop arriving is abandoned (counted)
 /// when a newer frame starts.
 class MapUpdateAssembler {
@@ -76,8 +76,10 @@ class MapUpdateAssembler {
   std::size_t incomplete_frames() const { return incomplete_frames_; }
 
  private:
-  std::optional<std::uint64_t> last_complete_;
-  std::optional<std::uint64_t> pending_frame_;
+  /// (frame id, settled): a settling update comes after its frame's update.
+  using UpdateKey = std::pair<std::uint64_t, bool>;
+  std::optional<UpdateKey> last_complete_;
+  std::optional<UpdateKey> pending_frame_;
   std::map<int, planecell_lcm::map_update_t> pending_;
   int pending_count_ = 0;
   std::size_t incomplete_frames_ = 0;

@@ -13,6 +13,9 @@ namespace planecell::io {
 
 struct MapUpdate {
   std::uint64_t frame_id = 0;
+  /// The map settled after frame frame_id (GlobalMap::settle at the end of a session): an
+  /// update that follows the frame's own, no new frame.
+  bool settled = false;
   std::vector<map::MapCell> added_cells;  ///< new stored cells, world frame, with their surface
   std::vector<std::pair<std::uint32_t, std::uint32_t>> relabelled_cells;  ///< (cell id, surface)
   std::vector<std::uint32_t> removed_cells;
@@ -29,7 +32,7 @@ struct MapMirror {
   std::unordered_map<std::uint32_t, map::MapCell> cells;
   std::uint32_t next_cell_id = 0;
   std::uint32_t next_surface_id = 0;
-  std::uint64_t frames = 0;  ///< updates applied
+  std::uint64_t frames = 0;  ///< frame updates applied (settling updates not counted)
   std::uint64_t last_frame_id = 0;
 
   /// Adds, relabels and removes cells as the update says. Throws InputError when it names a cell

@@ -612,17 +612,7 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
   };
   for (std::uint32_t id : unconfirmed)
     if (still_unconfirmed(id)) prune_surface(id, report);
-  // Single observations stored unconfirmed_timeout_frames ago or earlier: confirmed since, gone,
-  // or pruned now.
-  if (config_.unconfirmed_timeout_frames > 0) {
-    const auto timeout = static_cast<std::uint64_t>(config_.unconfirmed_timeout_frames);
-    while (!single_observation_since_.empty() &&
-           single_observation_since_.begin()->first + timeout <= frame_id) {
-      const std::uint32_t id = single_observation_since_.begin()->second;
-      single_observation_since_.erase(single_observation_since_.begin());
-      if (still_unconfirmed(id)) prune_surface(id, report);
-    }
-  }
+  prune_timed_out(frame_id, touched, report);
   for (std::uint32_t id : created_surfaces) {
     const auto it = surfaces_.find(id);
     if (it != surfaces_.end() && it->second.observations == 1) single_observation_since_.emplace(frame_id, id);
@@ -950,7 +940,7 @@ void GlobalMap::consolidate(std::uint64_t frame_id, std::set<std::uint32_t>& tou
 GlobalMap GlobalMap::restore(const MapConfig& config, std::vector<MapCell> cells,
                              std::vector<Surface> surfaces, std::uint32_t next_cell_id,
                              std::uint32_t next_surface_id,
-                             std::optional<std::uint64_t> last_frame_id) {
+                             std::optional<std::uint64_t> last_frame_id, bool settled) {
   GlobalMap map(config);
   for (auto& surface : surfaces) {
     const auto id = surface.id;
@@ -980,10 +970,46 @@ GlobalMap GlobalMap::restore(const MapConfig& config, std::vector<MapCell> cells
   // Cells the consolidation had not yet considered: stored after last_frame_id − age.
   const auto age = static_cast<std::uint64_t>(std::max(0, config.consolidate_after_frames));
   for (const auto& [id, cell] : map.cells_)
-    if (!last_frame_id || cell.frame_id + age > *last_frame_id)
+    if (!settled && (!last_frame_id || cell.frame_id + age > *last_frame_id))
       map.consolidation_queue_.emplace_back(cell.frame_id, id);
   std::sort(map.consolidation_queue_.begin(), map.consolidation_queue_.end());
   return map;
+}
+
+void GlobalMap::prune_timed_out(std::uint64_t frame_id, const std::set<std::uint32_t>& touched,
+                                MergeReport& report) {
+  if (config_.unconfirmed_timeout_frames <= 0) return;
+  const auto timeout = static_cast<std::uint64_t>(config_.unconfirmed_timeout_frames);
+  while (!single_observation_since_.empty() && single_observation_since_.begin()->first + timeout <= frame_id) {
+    const std::uint32_t id = single_observation_since_.begin()->second;
+    single_observation_since_.erase(single_observation_since_.begin());
+    const auto it = surfaces_.find(id);
+    if (it != surfaces_.end() && it->second.observations == 1 && !touched.contains(id)) prune_surface(id, report);
+  }
+}
+
+MergeReport GlobalMap::settle(std::uint64_t last_frame_id) {
+  const auto start = std::chrono::steady_clock::now();
+  MergeReport report;
+  report.frame_id = last_frame_id;
+  std::set<std::uint32_t> touched;
+  // The clocks as they will read once every cell and surface is due, with nothing observed since
+  // last_frame_id (a surface a join touches is observed at last_frame_id: due then too).
+  const auto age = static_cast<std::uint64_t>(std::max(0, config_.consolidate_after_frames));
+  const auto quiet = static_cast<std::uint64_t>(std::max(0, config_.dormant_after_frames));
+  consolidate(last_frame_id + age, touched, report);
+  retire_quiet_surfaces(last_frame_id + quiet, touched, report);
+  if (!report.removed_cells.empty())
+    std::erase_if(report.relabelled_cells, [&](std::uint32_t id) { return !cells_.contains(id); });
+  report.updated_surfaces.assign(touched.begin(), touched.end());
+  shrink_if_sparse(cells_);
+  shrink_if_sparse(surfaces_);
+  std::sort(report.relabelled_cells.begin(), report.relabelled_cells.end());
+  report.relabelled_cells.erase(std::unique(report.relabelled_cells.begin(), report.relabelled_cells.end()),
+                                report.relabelled_cells.end());
+  report.merge_ms =
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  return report;
 }
 
 void GlobalMap::wake(Surface& surface) {
@@ -1033,7 +1059,13 @@ void GlobalMap::retire_quiet_surfaces(std::uint64_t frame_id, std::set<std::uint
       dormancy_clock_.emplace(surface.last_observed_frame, id);
       continue;
     }
-    if (join_neighbour(surface, touched, report)) continue;  // live again, the merged surface
+    if (join_neighbour(surface, touched, report)) {
+      // The merged surface is live, observed now. When this one absorbed its neighbour, its own
+      // clock entry was the one just taken (the neighbour's is gone with it): back on the clock.
+      if (const auto merged = surfaces_.find(id); merged != surfaces_.end())
+        dormancy_clock_.emplace(merged->second.last_observed_frame, id);
+      continue;
+    }
     if (redundant_fragment(surface)) {
       // Its cell may be this frame's (consolidation): then the map's consumers never see it.
       const std::uint32_t cell_id = surface.cells.front();

@@ -191,6 +191,19 @@ class GlobalMap {
                         std::span<const Planecell> cells_world,
                         std::span<const LabelEdge> image_adjacency = {});
 
+  /// Settles the map at the end of a session (no frame after `last_frame_id` is coming now):
+  /// what integrate() would do to it over the next frames if none of them reached it, except
+  /// that nothing is pruned as unconfirmed (the last frames' single views may be confirmed in a
+  /// later session). Every cell not yet consolidated is consolidated (as if
+  /// consolidate_after_frames had passed), then every live surface goes quiet: it joins a neighbour or is pruned as a redundant fragment, as at
+  /// dormancy, or it drops its detail (MergeReport::dormant_surfaces). The report carries
+  /// frame_id = last_frame_id and the changes, for the store (io::MapStore::commit_settle), the
+  /// map's consumers and the merge scores. A settled map is smaller in RAM (no live working set)
+  /// and integrates on like any map: new cells near a dormant surface wake it. Settling a settled
+  /// map changes nothing. Needs consolidate_after_frames and dormant_after_frames > 0 for the
+  /// respective steps (0: that step is skipped).
+  MergeReport settle(std::uint64_t last_frame_id);
+
   const std::unordered_map<std::uint32_t, MapCell>& cells() const { return cells_; }
   const std::unordered_map<std::uint32_t, Surface>& surfaces() const { return surfaces_; }
   /// The stored cell / surface with this id, nullptr when absent (inline: io::MapStore uses them
@@ -244,10 +257,13 @@ class GlobalMap {
   /// stored after last_frame_id − consolidate_after_frames), so that integrating on from the
   /// restored map gives the same map as integrating on without a restart; without it every cell
   /// is considered again. Throws StorageError when a cell names a missing surface.
+  /// `settled`: the map was settled after last_frame_id (settle()): the consolidation has
+  /// considered every cell.
   static GlobalMap restore(const MapConfig& config, std::vector<MapCell> cells,
                            std::vector<Surface> surfaces, std::uint32_t next_cell_id,
                            std::uint32_t next_surface_id,
-                           std::optional<std::uint64_t> last_frame_id = std::nullopt);
+                           std::optional<std::uint64_t> last_frame_id = std::nullopt,
+                           bool settled = false);
 
   /// True when both maps hold exactly the same cells, surfaces and id counters.
   bool same_content(const GlobalMap& other) const;
@@ -276,6 +292,9 @@ class GlobalMap {
                        const Eigen::Vector3d& camera_centre, std::set<std::uint32_t>& touched,
                        MergeReport& report);
 
+  /// MapConfig::unconfirmed_timeout_frames: surfaces still holding a single observation that
+  /// were stored that many frames before `frame_id` or earlier, and not in `touched`, are pruned.
+  void prune_timed_out(std::uint64_t frame_id, const std::set<std::uint32_t>& touched, MergeReport& report);
   /// MapConfig::consolidate_after_frames: unites the old cells of each surface's tiles that
   /// cells coming of age this frame fall in; the cells leave the map (report.removed_cells) and
   /// their unions enter it (report.added_cells); `touched` gains their surfaces.

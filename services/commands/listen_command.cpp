@@ -32,7 +32,10 @@ class Listener {
       const auto chunk = io::decode_map_update({static_cast<const std::uint8_t*>(buffer->data), buffer->data_size});
       if (auto update = assembler_.add(chunk)) {
         mirror_.apply(*update);
-        ++updates_;
+        if (update->settled)
+          settled_ = true;
+        else
+          ++updates_;
       }
     } catch (const InputError& e) {
       ++rejected_;
@@ -50,7 +53,8 @@ class Listener {
     }
   }
   const io::MapMirror& mirror() const { return mirror_; }
-  std::size_t updates() const { return updates_; }
+  std::size_t updates() const { return updates_; }  ///< frame updates (not the settling)
+  bool settled() const { return settled_; }
   std::size_t rejected() const { return rejected_; }
   std::size_t incomplete() const { return assembler_.incomplete_frames(); }
   std::chrono::steady_clock::time_point last_update() const { return last_update_; }
@@ -59,6 +63,7 @@ class Listener {
   io::MapUpdateAssembler assembler_;
   io::MapMirror mirror_;
   std::size_t updates_ = 0, rejected_ = 0;
+  bool settled_ = false;
   std::chrono::steady_clock::time_point last_update_ = std::chrono::steady_clock::now();
 };
 
@@ -109,7 +114,7 @@ void add_listen_command(CLI::App& app, CommandContext& context) {
     }
     const io::MapMirror& mirror = listener.mirror();
     std::cout << "listen: " << listener.updates() << " frame updates applied (last frame " << mirror.last_frame_id
-              << "), " << listener.rejected() << " messages rejected, " << listener.incomplete()
+              << (listener.settled() ? ", the map settled after it" : "") << "), " << listener.rejected() << " messages rejected, " << listener.incomplete()
               << " frames incomplete; mirror " << mirror.cells.size() << " cells\n";
     const map::GlobalMap map = mirror_to_map(mirror, config.map);
     for (const auto& p : points) {

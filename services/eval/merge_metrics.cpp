@@ -53,8 +53,7 @@ void MergeEvaluator::add_frame(const cv::Mat& labels, const cv::Mat& gt_surface_
       depth_sigmas_m_.push_back(cells_world[i].depth_sigma_m);
     }
   }
-  for (const auto& merge : report.surface_merges) merged_into_[merge.absorbed] = merge.into;
-  pruned_.insert(report.pruned_surfaces.begin(), report.pruned_surfaces.end());
+  add_map_changes(report);
 }
 
 std::uint32_t MergeEvaluator::final_label(std::uint32_t label) const {
@@ -74,6 +73,11 @@ double lower_quantile(std::vector<float> values, double q) {
 }
 
 }  // namespace
+
+void MergeEvaluator::add_map_changes(const map::MergeReport& report) {
+  for (const auto& merge : report.surface_merges) merged_into_[merge.absorbed] = merge.into;
+  pruned_.insert(report.pruned_surfaces.begin(), report.pruned_surfaces.end());
+}
 
 MergeMetrics MergeEvaluator::finish() const {
   MergeMetrics m;

@@ -82,6 +82,10 @@ class MergeEvaluator {
   void add_frame(const cv::Mat& labels, const cv::Mat& gt_surface_id,
                  std::span<const Planecell> cells_world, const map::MergeReport& report);
 
+  /// Follows the surface merges and pruned surfaces of a report with no new cells
+  /// (GlobalMap::settle); add_frame does so for each frame's.
+  void add_map_changes(const map::MergeReport& report);
+
   MergeMetrics finish() const;
 
   /// GT surface id → GT plane group (coplanar_groups); ids missing from it are their own group.

@@ -151,6 +151,7 @@ Pipeline::Pipeline(const AppConfig& config, PipelineMode mode, map::GlobalMap ma
                        const std::lock_guard lock(stats_mutex_);
                        map_cells_ = map_.cells().size();
                        map_surfaces_ = map_.surfaces().size();
+                       last_merged_frame_ = w.frame_id;
                      }});
 
   const auto capacity = static_cast<std::size_t>(config_.pipeline.queue_capacity);
@@ -325,6 +326,7 @@ PipelineStats Pipeline::stats() const {
   out.stage_cost = costs_.summaries();
   out.map_cells = map_cells_;
   out.map_surfaces = map_surfaces_;
+  out.last_merged_frame = last_merged_frame_;
   return out;
 }
 

@@ -54,6 +54,7 @@ struct PipelineStats {
   std::vector<std::pair<std::string, StageCostSummary>> stage_cost;
   std::size_t map_cells = 0;  ///< after the last merged frame
   std::size_t map_surfaces = 0;
+  std::optional<std::uint64_t> last_merged_frame;  ///< id of the last merged frame; none yet
 };
 
 /// Called on the publish thread with every finished frame (work.delta filled when
@@ -147,6 +148,7 @@ class Pipeline {
   mutable std::mutex stats_mutex_;
   std::size_t frames_in_ = 0, frames_done_ = 0, frames_failed_ = 0;
   std::size_t map_cells_ = 0, map_surfaces_ = 0;
+  std::optional<std::uint64_t> last_merged_frame_;
   std::size_t merged_frames_ = 0;  ///< merge thread only: frames merged (map_bytes_every)
   LatencyLog latency_;
   StageCostLog costs_;

@@ -65,6 +65,23 @@ void store_stage(FrameWork& work, io::MapStore& store, const map::GlobalMap& map
   work.timed("store", [&] { store.commit_frame(work.frame_id, *work.frame.pose, work.merge, map, work.input_pose); });
 }
 
+std::optional<map::MergeReport> settle_stage(map::GlobalMap& map, io::MapStore* store,
+                                             std::optional<std::uint64_t> last_frame_id) {
+  if (!map.config().settle_at_close || !last_frame_id) return std::nullopt;
+  map::MergeReport report = map.settle(*last_frame_id);
+  spdlog::debug("settled the map after frame {} in {:.1f} ms: {} cells consolidated, {} surfaces dormant, "
+                "{} joined, {} pruned", *last_frame_id, report.merge_ms, report.consolidated_cells,
+                report.dormant_surfaces.size(), report.surface_merges.size(), report.pruned_surfaces.size());
+  if (store) {
+    try {
+      store->commit_settle(report, map);
+    } catch (const StorageError& e) {
+      spdlog::warn("{}; every frame is committed, the store is only not settled", e.what());
+    }
+  }
+  return report;
+}
+
 std::optional<io::StoreBytes> close_store(std::unique_ptr<io::MapStore>& store) {
   if (!store) return std::nullopt;
   try {

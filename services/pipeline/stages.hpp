@@ -116,6 +116,14 @@ void merge_stage(FrameWork& work, map::GlobalMap& map, bool want_delta = false, 
 /// store: commits the merged frame to the map store (one transaction).
 void store_stage(FrameWork& work, io::MapStore& store, const map::GlobalMap& map);
 
+/// End of a session, before close_store: settles `map` after its last frame `last_frame_id`
+/// (map::GlobalMap::settle) when map.settle_at_close is set and a frame was mapped, and commits
+/// the settling to `store` when there is one (a failure, e.g. a full disk, is logged as a
+/// warning: the store keeps every frame, unsettled). Returns the settling's report (nullopt when
+/// the map was not settled) for the map's consumers and scores.
+std::optional<map::MergeReport> settle_stage(map::GlobalMap& map, io::MapStore* store,
+                                             std::optional<std::uint64_t> last_frame_id);
+
 /// End of a session: compacts the store (io::MapStore::compact; a failure, e.g. a full disk,
 /// is logged as a warning: every frame is already committed) and closes it, which checkpoints
 /// the WAL into the database. Returns the compacted store's pages by table

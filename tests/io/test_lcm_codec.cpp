@@ -10,6 +10,7 @@
 
 #include "core/error.hpp"
 #include "io/lcm/lcm_codec.hpp"
+#include "support/expect_error.hpp"
 #include "support/planecell_fixtures.hpp"
 
 namespace planecell::io {
@@ -257,6 +258,44 @@ TEST(LcmCodec, OutOfOrderDuplicateAndInconsistentChunksAreRejected) {
   EXPECT_TRUE(assembler.add(frame7[0]).has_value());
   EXPECT_EQ(assembler.incomplete_frames(), 1u);
   EXPECT_THROW(assembler.add(frame6[1]), InputError);  // too late now
+}
+
+TEST(LcmCodec, TheSettlingAfterAFrameFollowsItsUpdateOnceAndBeforeTheNextFrame) {
+  MapUpdate update5;
+  update5.frame_id = 5;
+  update5.added_cells = {world_cell(0), world_cell(1)};
+  MapUpdate settling = update5;  // consolidation: the two cells leave, their union enters
+  settling.settled = true;
+  settling.added_cells = {world_cell(2)};
+  settling.removed_cells = {0, 1};
+  MapUpdate update6;
+  update6.frame_id = 6;
+  const auto frame5 = encode_map_update(update5, 0);
+  const auto settled5 = encode_map_update(settling, 0);
+  ASSERT_EQ(settled5.size(), 1u);
+  EXPECT_TRUE(settled5[0].settled);
+  MapUpdateAssembler assembler;
+  const auto frame = assembler.add(decode_map_update(encode_bytes(frame5[0])));
+  ASSERT_TRUE(frame.has_value());
+  EXPECT_FALSE(frame->settled);
+  const auto settled = assembler.add(decode_map_update(encode_bytes(settled5[0])));
+  ASSERT_TRUE(settled.has_value());
+  EXPECT_TRUE(settled->settled);
+  EXPECT_EQ(settled->frame_id, 5u);
+  EXPECT_EQ(settled->removed_cells, settling.removed_cells);
+  EXPECT_CONTAINS(test::error_of<InputError>([&] { assembler.add(settled5[0]); }),
+                  "map_update_t settling the map after frame 5: out of order (the settling after frame 5 "
+                  "already applied)");
+  EXPECT_THROW(assembler.add(frame5[0]), InputError);  // the frame after its settling
+  EXPECT_TRUE(assembler.add(encode_map_update(update6, 0)[0]).has_value());
+  // A mirror applies both and counts frames, not settlings.
+  MapMirror mirror;
+  mirror.apply(*frame);
+  mirror.apply(*settled);
+  EXPECT_EQ(mirror.frames, 1u);
+  EXPECT_EQ(mirror.last_frame_id, 5u);
+  ASSERT_EQ(mirror.cells.size(), 1u);
+  EXPECT_TRUE(mirror.cells.contains(2));
 }
 
 TEST(LcmCodec, MirrorAppliesAddsRelabelsAndRemovalsAndRejectsUnknownCells) {

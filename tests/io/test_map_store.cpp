@@ -162,6 +162,47 @@ TEST(MapStoreTest, RoundTripReopenResumesTheMapExactly) {
   EXPECT_EQ(reopened.frame_count(), 7u);
 }
 
+TEST(MapStoreTest, SettlingIsCommittedAfterTheLastFrameAndResumes) {
+  test::ScratchDir dir;
+  const auto path = dir / "map.db";
+  MapConfig config;
+  config.consolidate_after_frames = 3;
+  config.dormant_after_frames = 3;
+  map::GlobalMap map(config);
+  MapStore store(path);
+  for (int f = 0; f < 8; ++f) {
+    const auto report = map.integrate(static_cast<std::uint64_t>(f), frame_pose(f), frame_cells(f));
+    store.commit_frame(static_cast<std::uint64_t>(f), frame_pose(f), report, map);
+  }
+  EXPECT_FALSE(store.load().settled);
+  // Only after the store's last frame.
+  map::GlobalMap early = map;
+  const auto early_report = early.settle(5);
+  EXPECT_CONTAINS(test::error_of<StorageError>([&] { store.commit_settle(early_report, early); }),
+                  "the settling after frame 5: it is not the store's last frame");
+  EXPECT_TRUE(load_map(store, config).same_content(map));
+  const auto report = map.settle(7);
+  ASSERT_FALSE(report.dormant_surfaces.empty());
+  ASSERT_GT(report.consolidated_cells, 0u);
+  store.commit_settle(report, map);
+  EXPECT_EQ(store.frame_count(), 8u);  // no frame row
+  {
+    MapStore reopened(path);
+    const StoredMap stored = reopened.load();
+    EXPECT_TRUE(stored.settled);
+    EXPECT_EQ(stored.last_frame_id, std::optional<std::uint64_t>(7));
+    map::GlobalMap loaded = load_map(reopened, config);
+    EXPECT_TRUE(loaded.same_content(map));
+    // The next frame: the same on the reopened map as in memory, and the store no longer settled.
+    const auto next = loaded.integrate(8, frame_pose(8), frame_cells(8));
+    map.integrate(8, frame_pose(8), frame_cells(8));
+    EXPECT_TRUE(loaded.same_content(map));
+    reopened.commit_frame(8, frame_pose(8), next, loaded);
+    EXPECT_FALSE(reopened.load().settled);
+    EXPECT_TRUE(load_map(reopened, config).same_content(map));
+  }
+}
+
 TEST(MapStoreTest, RTreeAnswersBoxQueriesOverCellBounds) {
   test::ScratchDir dir;
   map::GlobalMap map;

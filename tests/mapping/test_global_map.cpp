@@ -804,6 +804,12 @@ TEST(Dormancy, ASurfaceAFragmentJoinsInTheFrameItWentQuietIsNotReportedDormant) 
     EXPECT_EQ(map.surface(wall_id), nullptr);
     EXPECT_TRUE(report.dormant_surfaces.empty());
     EXPECT_EQ(map.surface(fragment_id)->cells.size(), 9u);
+    // The merged surface, observed at frame 8, is back on the dormancy clock (its entry was the
+    // one taken at frame 8): quiet five frames later, it goes dormant like any other.
+    const auto later = map.integrate(13, Pose::Identity(), {});
+    check(map, later);
+    EXPECT_EQ(later.dormant_surfaces, (std::vector<std::uint32_t>{fragment_id}));
+    EXPECT_FALSE(map.surface(fragment_id)->detail.has_value());
   }
 }
 
@@ -1026,6 +1032,118 @@ TEST(Consolidation, BadSettingsAreConfigErrors) {
     config.consolidate_after_frames = 0;  // off: the other settings are not used
     EXPECT_NO_THROW(GlobalMap{config});
   }
+}
+
+/// Settling at the end of a session: the 4 m road of road_row driven for 12 frames (consolidation
+/// and dormancy after 5 frames) and a 1 m × 1 m sign 6 m beside it seen in the last frame only.
+struct SettleDrive {
+  static constexpr int kFrames = 12;
+  static MapConfig config() {
+    MapConfig c;
+    c.consolidate_after_frames = 5;
+    c.dormant_after_frames = 5;
+    return c;
+  }
+  static std::vector<Planecell> frame(int f) {
+    std::vector<Planecell> cells = road_row(f);
+    if (f == kFrames - 1)
+      cells.push_back(rect_cell(4, {6.0f, -1.0f, 2.0f * f}, kZ, kY, 12));  // the sign
+    return cells;
+  }
+};
+
+TEST(Settle, EveryCellIsConsolidatedAndEverySurfaceSleepsASingleViewToo) {
+  const MapConfig config = SettleDrive::config();
+  ASSERT_EQ(config.unconfirmed_timeout_frames, 10);
+  GlobalMap map(config);
+  std::uint32_t road = kNoSurface, sign = kNoSurface;
+  for (int f = 0; f < SettleDrive::kFrames; ++f) {
+    const auto report = map.integrate(static_cast<std::uint64_t>(f), road_pose(f), SettleDrive::frame(f));
+    if (f == 0) road = report.cell_surfaces[0];
+    if (f == SettleDrive::kFrames - 1) sign = report.cell_surfaces[4];
+  }
+  ASSERT_NE(sign, road);
+  ASSERT_EQ(map.surfaces().size(), 2u);
+  ASSERT_TRUE(map.surface(road)->detail.has_value());
+  // Frames 7–11 are not consolidated yet: their 20 road cells are as stored (1 m × 2 m).
+  auto stored_as_seen = [&] {
+    std::size_t n = 0;
+    for (const auto& [id, cell] : map.cells())
+      n += cell.surface == road && std::abs(polygon_area_m2(cell.vertices_m) - 2.0) < 1e-4;
+    return n;
+  };
+  ASSERT_GE(stored_as_seen(), 20u);
+  const std::size_t live_bytes = map.map_bytes();
+  const std::set<std::uint32_t> before_ids = [&] {
+    std::set<std::uint32_t> ids;
+    for (const auto& [id, cell] : map.cells()) ids.insert(id);
+    return ids;
+  }();
+
+  const MergeReport report = map.settle(SettleDrive::kFrames - 1);
+  EXPECT_EQ(report.frame_id, static_cast<std::uint64_t>(SettleDrive::kFrames - 1));
+  // The road and the sign sleep. The sign, a single view, is not pruned: a later session may
+  // confirm it (the unconfirmed timeout still runs then).
+  EXPECT_TRUE(report.pruned_surfaces.empty());
+  EXPECT_EQ(report.dormant_surfaces, (std::vector<std::uint32_t>{std::min(road, sign), std::max(road, sign)}));
+  ASSERT_EQ(map.surfaces().size(), 2u);
+  EXPECT_FALSE(map.surface(road)->detail.has_value());
+  EXPECT_FALSE(map.surface(sign)->detail.has_value());
+  EXPECT_EQ(map.surface(sign)->cells.size(), 1u);
+  // Every road cell went into a union of two or more (the road's cells touch): none is left as
+  // seen, and every removed cell and every added one is reported.
+  EXPECT_EQ(stored_as_seen(), 0u);
+  EXPECT_GT(report.consolidated_cells, 0u);
+  for (std::uint32_t id : report.removed_cells) {
+    EXPECT_TRUE(before_ids.contains(id)) << id;
+    EXPECT_EQ(map.cell(id), nullptr) << id;
+  }
+  for (std::uint32_t id : report.added_cells) EXPECT_NE(map.cell(id), nullptr) << id;
+  for (const auto& [id, cell] : map.cells())
+    EXPECT_TRUE(before_ids.contains(id) || std::find(report.added_cells.begin(), report.added_cells.end(), id) !=
+                                               report.added_cells.end()) << id;
+  // The same road: every point 0.5 m inside a seen cell lies on a stored cell.
+  for (double z = 0.5; z < 2.0 * SettleDrive::kFrames; z += 1.0)
+    for (double x = -1.5; x <= 1.5; x += 1.0) {
+      const auto hit = map.nearest_cell(Eigen::Vector3d(x, 1.5, z), 0.5);
+      ASSERT_TRUE(hit.has_value()) << x << ", " << z;
+      EXPECT_NEAR(hit->distance_m, 0.0, 1e-4) << x << ", " << z;
+    }
+  EXPECT_LT(map.map_bytes(), live_bytes);
+  // Settled once, settling again changes nothing.
+  const GlobalMap settled = map;
+  const MergeReport again = map.settle(SettleDrive::kFrames - 1);
+  EXPECT_TRUE(again.added_cells.empty() && again.removed_cells.empty() && again.updated_surfaces.empty() &&
+              again.dormant_surfaces.empty() && again.surface_merges.empty() && again.pruned_surfaces.empty());
+  EXPECT_TRUE(map.same_content(settled));
+}
+
+TEST(Settle, ASettledMapRestoredAsSettledDrivesOnAsTheOneInMemory) {
+  const MapConfig config = SettleDrive::config();
+  GlobalMap map(config);
+  for (int f = 0; f < SettleDrive::kFrames; ++f)
+    map.integrate(static_cast<std::uint64_t>(f), road_pose(f), SettleDrive::frame(f));
+  map.settle(SettleDrive::kFrames - 1);
+  std::vector<MapCell> cells;
+  std::vector<Surface> surfaces;
+  for (const auto& [id, c] : map.cells()) cells.push_back(c);
+  for (const auto& [id, s] : map.surfaces()) surfaces.push_back(s);
+  GlobalMap resumed = GlobalMap::restore(config, cells, surfaces, map.next_cell_id(), map.next_surface_id(),
+                                         SettleDrive::kFrames - 1, true);
+  ASSERT_TRUE(resumed.same_content(map));
+  // The drive goes on along the road: the new rows wake the sleeping road and join it.
+  for (int f = SettleDrive::kFrames; f < SettleDrive::kFrames + 8; ++f) {
+    const auto report = map.integrate(static_cast<std::uint64_t>(f), road_pose(f), road_row(f));
+    resumed.integrate(static_cast<std::uint64_t>(f), road_pose(f), road_row(f));
+    if (f == SettleDrive::kFrames) {
+      ASSERT_EQ(map.surfaces().size(), 2u);  // the road, woken, and the sign
+      const std::uint32_t road = report.cell_surfaces[0];
+      ASSERT_NE(map.surface(road), nullptr);
+      EXPECT_TRUE(map.surface(road)->detail.has_value());
+      EXPECT_GT(map.surface(road)->cells.size(), 1u);
+    }
+  }
+  EXPECT_TRUE(resumed.same_content(map));
 }
 
 }  // namespace

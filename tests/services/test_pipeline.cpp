@@ -78,7 +78,10 @@ TEST_F(PipelineTest, ThreadedReplayReportsStageCostsAndMemoryOverFrames) {
       EXPECT_GT(report.memory[i].map_bytes, 0u);  // measured by the merge stage on that frame
     }
   }
-  EXPECT_EQ(report.memory.back().map_bytes, report.map_bytes);
+  // The last sample is the map as the last frame left it; the report's is the settled map.
+  EXPECT_EQ(report.memory.back().map_bytes, report.map_bytes_live);
+  EXPECT_TRUE(report.settled);
+  EXPECT_LT(report.map_bytes, report.map_bytes_live);
   EXPECT_GE(report.peak_rss_bytes, report.memory.back().rss_bytes);
 }
 
@@ -86,15 +89,17 @@ TEST_F(PipelineTest, PacedThreadedReplayFeedsFramesAtTheRateAndBuildsTheSameMap)
   ReplayOptions paced = options("paced.db", true);
   paced.rate_hz = 40.0;  // frame k of the run is due at k / 40 s: 6 frames take at least 125 ms
   paced.sinks.want_delta = true;
-  std::vector<std::uint64_t> published;
+  std::vector<std::pair<std::uint64_t, bool>> published;
   paced.sinks.publish = [&](const FrameWork& work) {
     EXPECT_EQ(work.delta.frame_id, work.frame_id);
-    published.push_back(work.frame_id);
+    published.emplace_back(work.frame_id, work.delta.settled);
   };
   const ReplayReport report = run_replay(paced, config_);
   EXPECT_EQ(report.rate_hz, 40.0);
   EXPECT_GE(report.wall_s, 5.0 / 40.0);
-  EXPECT_EQ(published, (std::vector<std::uint64_t>{0, 1, 2, 3, 4, 5}));
+  // Every frame in order, then the settling after the last.
+  EXPECT_EQ(published, (std::vector<std::pair<std::uint64_t, bool>>{
+                           {0, false}, {1, false}, {2, false}, {3, false}, {4, false}, {5, false}, {5, true}}));
   run_replay(options("unpaced.db", false), config_);
   EXPECT_TRUE(io::load_map(io::MapStore(scratch_ / "paced.db"))
                   .same_content(io::load_map(io::MapStore(scratch_ / "unpaced.db"))));
@@ -138,6 +143,7 @@ TEST_F(PipelineTest, ReplayRejectsANegativeRate) {
 }
 
 TEST_F(PipelineTest, ThreadedReplayResumesAStoreLikeTheSingleThreadedRun) {
+  config_.map.settle_at_close = false;  // stopped as a killed run is: the map as frame 2 left it
   ReplayOptions first_half = options("split.db", true);
   first_half.last_frame = 3;
   EXPECT_EQ(run_replay(first_half, config_).frames, 3u);
@@ -145,8 +151,8 @@ TEST_F(PipelineTest, ThreadedReplayResumesAStoreLikeTheSingleThreadedRun) {
   EXPECT_EQ(rest.frames, 3u);
   EXPECT_EQ(rest.frames_resumed, 3u);
   run_replay(options("whole.db", false), config_);
-  EXPECT_TRUE(io::load_map(io::MapStore(scratch_ / "split.db"))
-                  .same_content(io::load_map(io::MapStore(scratch_ / "whole.db"))));
+  EXPECT_TRUE(io::load_map(io::MapStore(scratch_ / "split.db"), config_.map)
+                  .same_content(io::load_map(io::MapStore(scratch_ / "whole.db"), config_.map)));
 }
 
 TEST_F(PipelineTest, LiveModeKeepsTheNewestFramesAndCountsTheDroppedOnes) {

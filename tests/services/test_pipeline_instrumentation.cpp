@@ -112,15 +112,16 @@ TEST(SingleThreadedReplayTest, PublishSinkSeesEveryFrameWithItsDeltaInOrder) {
   options.sequence_dir = scratch / "seq";
   options.progress = false;
   options.sinks.want_delta = true;
-  std::vector<std::uint64_t> published;
+  std::vector<std::pair<std::uint64_t, bool>> published;
   std::size_t added = 0;
   options.sinks.publish = [&](const FrameWork& work) {
     EXPECT_EQ(work.delta.frame_id, work.frame_id);
     added += work.delta.added_cells.size();
-    published.push_back(work.frame_id);
+    published.emplace_back(work.frame_id, work.delta.settled);
   };
   const ReplayReport report = run_replay(options, test::small_street_config());
-  EXPECT_EQ(published, (std::vector<std::uint64_t>{0, 1, 2}));
+  // Every frame, then the settling after the last (map.settle_at_close).
+  EXPECT_EQ(published, (std::vector<std::pair<std::uint64_t, bool>>{{0, false}, {1, false}, {2, false}, {2, true}}));
   EXPECT_GE(added, report.cells_in_map);  // every cell in the map was announced when added
 }
 

@@ -87,21 +87,50 @@ TEST_F(ReplayTest, MapsEveryFrameAndStoresThem) {
 }
 
 TEST_F(ReplayTest, ResumesAfterTheLastCommittedFrameAndMatchesAnUninterruptedRun) {
+  // Stopped without settling (as a killed run is): the store holds the map as frame 1 left it.
+  AppConfig config = config_;
+  config.map.settle_at_close = false;
   ReplayOptions options = street_options();
   options.map_path = scratch_ / "split.db";
   options.last_frame = 2;
-  EXPECT_EQ(run_replay(options, config_).frames, 2u);
+  EXPECT_EQ(run_replay(options, config).frames, 2u);
+  EXPECT_FALSE(io::MapStore(scratch_ / "split.db").load().settled);
   options.last_frame = std::numeric_limits<std::size_t>::max();
-  const ReplayReport resumed = run_replay(options, config_);
+  const ReplayReport resumed = run_replay(options, config);
   EXPECT_EQ(resumed.frames, 2u);
   EXPECT_EQ(resumed.frames_resumed, 2u);
 
   options.map_path = scratch_ / "whole.db";
-  const ReplayReport whole = run_replay(options, config_);
+  const ReplayReport whole = run_replay(options, config);
   EXPECT_EQ(whole.frames, 4u);
-  const auto split_map = io::load_map(io::MapStore(scratch_ / "split.db"));
-  const auto whole_map = io::load_map(io::MapStore(scratch_ / "whole.db"));
+  const auto split_map = io::load_map(io::MapStore(scratch_ / "split.db"), config.map);
+  const auto whole_map = io::load_map(io::MapStore(scratch_ / "whole.db"), config.map);
   EXPECT_TRUE(split_map.same_content(whole_map));
+}
+
+TEST_F(ReplayTest, AFinishedReplaySettlesTheMapAndAResumedOneGoesOnFromIt) {
+  ReplayOptions options = street_options();
+  options.map_path = scratch_ / "settled.db";
+  options.last_frame = 2;
+  const ReplayReport first = run_replay(options, config_);
+  ASSERT_TRUE(config_.map.settle_at_close);
+  EXPECT_TRUE(first.settled);
+  EXPECT_LT(first.map_bytes, first.map_bytes_live);  // the last frames' working set is gone
+  {
+    const io::MapStore store(scratch_ / "settled.db");
+    EXPECT_TRUE(store.load().settled);
+    const auto stored = io::load_map(store, config_.map);
+    EXPECT_EQ(stored.cells().size(), first.cells_in_map);
+    EXPECT_EQ(map::dormant_surface_count(stored), stored.surfaces().size());
+  }
+  options.last_frame = std::numeric_limits<std::size_t>::max();
+  const ReplayReport resumed = run_replay(options, config_);
+  EXPECT_EQ(resumed.frames, 2u);
+  EXPECT_EQ(resumed.frames_resumed, 2u);
+  const io::MapStore store(scratch_ / "settled.db");
+  EXPECT_EQ(store.frame_count(), 4u);
+  EXPECT_TRUE(store.load().settled);
+  EXPECT_EQ(io::load_map(store, config_.map).cells().size(), resumed.cells_in_map);
 }
 
 TEST_F(ReplayTest, VoxelBaselineIsFedTheSameFrames) {
