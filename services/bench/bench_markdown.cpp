@@ -214,7 +214,9 @@ std::string format_markdown(const BenchReport& r) {
   md << "\n## Memory\n\n"
         "Bytes of each representation as frames are added (sampled every few frames; the last "
         "sample is after the last frame). planecell: the global map in RAM "
-        "(`GlobalMap::map_bytes`: heap bytes of cells, surfaces and index) and the SQLite map "
+        "(`GlobalMap::map_bytes`: heap bytes of cells, surfaces and index; at the end the map "
+        "settled, `map.settle_at_close`: the last frames' cells consolidated and their surfaces "
+        "dormant, as a session's close leaves it) and the SQLite map "
         "store on disk (database + WAL); points: every valid SGM pixel of every frame kept as 3 "
         "floats + 3 colour bytes (counted, not kept by the bench); voxel: OctoMap `memoryUsage()` "
         "and the size of its `.bt` (occupancy only) and `.ot` (with colour) serialisations.\n\n"
@@ -226,8 +228,8 @@ std::string format_markdown(const BenchReport& r) {
                                       bytes(static_cast<double>(value) / per_frame),
                                       number(static_cast<double>(value) / base, 2), count};
     };
-    const std::vector<std::vector<std::string>> rows = {
-        row("planecell map in RAM", mem.planecell_ram_bytes,
+    std::vector<std::vector<std::string>> rows = {
+        row(r.replay.settled ? "planecell map in RAM (settled)" : "planecell map in RAM", mem.planecell_ram_bytes,
             std::to_string(mem.planecell_cells) + " cells"),
         row("planecell map store (disk)", mem.planecell_store_bytes,
             std::to_string(r.map_cells) + " cells, " + std::to_string(r.map_surfaces) +
@@ -237,6 +239,9 @@ std::string format_markdown(const BenchReport& r) {
             std::to_string(mem.voxels) + " voxels"),
         row("OctoMap .bt", mem.octomap_bt_bytes, ""),
         row("OctoMap .ot", mem.octomap_ot_bytes, "")};
+    if (r.replay.settled)  // the live map after the last frame, beside the settled one
+      rows.insert(rows.begin() + 1, row("planecell map in RAM after the last frame (live)",
+                                        r.replay.map_bytes_live, "before settling"));
     md << "After " << mem.frames << " frames:\n\n"
        << report::table({"representation", "bytes", "per frame", "× planecell RAM", "elements"},
                         rows)

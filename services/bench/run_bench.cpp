@@ -250,7 +250,10 @@ BenchReport run_bench(const BenchOptions& options, const AppConfig& config) {
   replay.observe = [&observer](const FrameWork& work) { observer(work); };
   replay.memory_sample_every = observer.stride();  // the merge stage measures the map's RAM then
   report.replay = run_replay(replay, config);
-  if (!report.memory.empty()) report.memory.back().planecell_ram_bytes = report.replay.map_bytes;
+  if (!report.memory.empty()) {  // the map as the replay closed it (settled: map.settle_at_close)
+    report.memory.back().planecell_ram_bytes = report.replay.map_bytes;
+    report.memory.back().planecell_cells = report.replay.cells_in_map;
+  }
   report.bench_latency = observer.latency();
 
   // Top views of the stored map, read back through the store like any consumer of the map.

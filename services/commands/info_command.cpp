@@ -215,7 +215,11 @@ bool is_map_store(const fs::path& path) {
 
 std::string describe_map_store(const fs::path& path) {
   const io::MapStore store(path);
-  const map::GlobalMap global_map = io::load_map(store);
+  io::StoredMap contents = store.load();
+  const bool settled = contents.settled;
+  const map::GlobalMap global_map =
+      map::GlobalMap::restore({}, std::move(contents.cells), std::move(contents.surfaces), contents.next_cell_id,
+                              contents.next_surface_id, contents.last_frame_id, contents.settled);
   std::size_t planecells_with_surface = 0;
   for (const auto& [id, cell] : global_map.cells())
     if (cell.surface != kNoSurface) ++planecells_with_surface;
@@ -224,7 +228,8 @@ std::string describe_map_store(const fs::path& path) {
   std::ostringstream out;
   out << std::fixed << std::setprecision(1);
   out << "planecell map store: " << path.string() << "\n";
-  out << "  frames:       " << store.frame_count() << " committed\n";
+  out << "  frames:       " << store.frame_count() << " committed"
+      << (settled ? ", the map settled after the last (its session closed)" : "") << "\n";
   out << "  cells:        " << global_map.cells().size() << " (" << planecells_with_surface
       << " with a surface label)\n";
   out << "  surfaces:     " << global_map.surfaces().size() << " ("
