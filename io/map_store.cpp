@@ -499,8 +499,10 @@ StoredMap MapStore::load() const {
   }
   {
     Statement settled(db_, "SELECT value FROM meta WHERE key = 'settled_frame'", *this);
-    if (settled.step(rc)) out.settled = out.last_frame_id && settled.text(0) == std::to_string(*out.last_frame_id);
-    else if (rc != SQLITE_DONE) fail("cannot read meta");
+    if (settled.step(rc))
+      out.settled = out.last_frame_id && settled.text(0) == std::to_string(*out.last_frame_id);
+    else if (rc != SQLITE_DONE)
+      fail("cannot read meta");
   }
   return out;
 }

@@ -119,12 +119,16 @@ class MapStore {
   sqlite3* db_ = nullptr;
 };
 
-/// Rebuilds the stored map as a GlobalMap with `config`.
-inline map::GlobalMap load_map(const MapStore& store, const MapConfig& config = {}) {
-  StoredMap stored = store.load();
+/// Rebuilds a map read from a store (MapStore::load) as a GlobalMap with `config`.
+inline map::GlobalMap load_map(StoredMap stored, const MapConfig& config = {}) {
   return map::GlobalMap::restore(config, std::move(stored.cells), std::move(stored.surfaces),
                                  stored.next_cell_id, stored.next_surface_id, stored.last_frame_id,
                                  stored.settled);
+}
+
+/// Rebuilds the stored map as a GlobalMap with `config`.
+inline map::GlobalMap load_map(const MapStore& store, const MapConfig& config = {}) {
+  return load_map(store.load(), config);
 }
 
 }  // namespace planecell::io

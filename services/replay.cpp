@@ -309,10 +309,7 @@ ReplayReport run_replay(const ReplayOptions& options, const AppConfig& config) {
       FrameWork work;
       work.frame_id = settled->frame_id;
       work.merge = *settled;
-      if (options.sinks.want_delta) {
-        work.delta = make_delta(work.merge, global_map);
-        work.delta.settled = true;
-      }
+      if (options.sinks.want_delta) work.delta = make_delta(work.merge, global_map);
       work.map_cells = global_map.cells().size();
       options.sinks.publish(work);
     }

@@ -66,7 +66,8 @@ std::vector<planecell_lcm::map_update_t> encode_map_update(const MapUpdate& upda
                                                            std::size_t max_bytes = kMaxLcmMessageBytes);
 
 /// Collects the chunks of map updates back into whole updates. Frames must arrive in increasing
-/// frame-id order (a frame's settling update after the frame's own); a chunk of an older frame, a duplicate or inconsistent chunk raises InputError
+/// frame-id order (a frame's settling update after the frame's own); a chunk of an older frame,
+/// a duplicate or inconsistent chunk raises InputError
 /// (the caller counts and skips it). A frame whose chunks stop arriving is abandoned (counted)
 /// when a newer frame starts.
 class MapUpdateAssembler {

@@ -612,7 +612,17 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
   };
   for (std::uint32_t id : unconfirmed)
     if (still_unconfirmed(id)) prune_surface(id, report);
-  prune_timed_out(frame_id, touched, report);
+  // Single observations stored unconfirmed_timeout_frames ago or earlier: confirmed since, gone,
+  // or pruned now.
+  if (config_.unconfirmed_timeout_frames > 0) {
+    const auto timeout = static_cast<std::uint64_t>(config_.unconfirmed_timeout_frames);
+    while (!single_observation_since_.empty() &&
+           single_observation_since_.begin()->first + timeout <= frame_id) {
+      const std::uint32_t id = single_observation_since_.begin()->second;
+      single_observation_since_.erase(single_observation_since_.begin());
+      if (still_unconfirmed(id)) prune_surface(id, report);
+    }
+  }
   for (std::uint32_t id : created_surfaces) {
     const auto it = surfaces_.find(id);
     if (it != surfaces_.end() && it->second.observations == 1) single_observation_since_.emplace(frame_id, id);
@@ -631,16 +641,7 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
     surface.histogram_weight_m2 = to_float_precision(state.histogram_weight_m2);
   }
   if (config_.bridge_gap_m > 0.0) bridge_surfaces(fresh, fresh_input, camera_centre, touched, report);
-  consolidate(frame_id, touched, report);
-  retire_quiet_surfaces(frame_id, touched, report);
-  if (!report.removed_cells.empty())  // replaced, pruned or consolidated
-    std::erase_if(report.relabelled_cells, [&](std::uint32_t id) { return !cells_.contains(id); });
-  report.updated_surfaces.assign(touched.begin(), touched.end());
-  shrink_if_sparse(cells_);  // after replacements, pruning and consolidation
-  shrink_if_sparse(surfaces_);
-  std::sort(report.relabelled_cells.begin(), report.relabelled_cells.end());
-  report.relabelled_cells.erase(std::unique(report.relabelled_cells.begin(), report.relabelled_cells.end()),
-                                report.relabelled_cells.end());
+  age_and_finish(frame_id, frame_id, touched, report);
   next_surface_id_ += static_cast<std::uint32_t>(fresh.size());
   report.merge_ms =
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
@@ -976,37 +977,31 @@ GlobalMap GlobalMap::restore(const MapConfig& config, std::vector<MapCell> cells
   return map;
 }
 
-void GlobalMap::prune_timed_out(std::uint64_t frame_id, const std::set<std::uint32_t>& touched,
-                                MergeReport& report) {
-  if (config_.unconfirmed_timeout_frames <= 0) return;
-  const auto timeout = static_cast<std::uint64_t>(config_.unconfirmed_timeout_frames);
-  while (!single_observation_since_.empty() && single_observation_since_.begin()->first + timeout <= frame_id) {
-    const std::uint32_t id = single_observation_since_.begin()->second;
-    single_observation_since_.erase(single_observation_since_.begin());
-    const auto it = surfaces_.find(id);
-    if (it != surfaces_.end() && it->second.observations == 1 && !touched.contains(id)) prune_surface(id, report);
-  }
+void GlobalMap::age_and_finish(std::uint64_t consolidation_frame, std::uint64_t dormancy_frame,
+                               std::set<std::uint32_t>& touched, MergeReport& report) {
+  consolidate(consolidation_frame, touched, report);
+  retire_quiet_surfaces(dormancy_frame, touched, report);
+  if (!report.removed_cells.empty())  // replaced, pruned or consolidated
+    std::erase_if(report.relabelled_cells, [&](std::uint32_t id) { return !cells_.contains(id); });
+  report.updated_surfaces.assign(touched.begin(), touched.end());
+  shrink_if_sparse(cells_);  // after replacements, pruning and consolidation
+  shrink_if_sparse(surfaces_);
+  std::sort(report.relabelled_cells.begin(), report.relabelled_cells.end());
+  report.relabelled_cells.erase(std::unique(report.relabelled_cells.begin(), report.relabelled_cells.end()),
+                                report.relabelled_cells.end());
 }
 
 MergeReport GlobalMap::settle(std::uint64_t last_frame_id) {
   const auto start = std::chrono::steady_clock::now();
   MergeReport report;
   report.frame_id = last_frame_id;
+  report.settled = true;
   std::set<std::uint32_t> touched;
   // The clocks as they will read once every cell and surface is due, with nothing observed since
   // last_frame_id (a surface a join touches is observed at last_frame_id: due then too).
   const auto age = static_cast<std::uint64_t>(std::max(0, config_.consolidate_after_frames));
   const auto quiet = static_cast<std::uint64_t>(std::max(0, config_.dormant_after_frames));
-  consolidate(last_frame_id + age, touched, report);
-  retire_quiet_surfaces(last_frame_id + quiet, touched, report);
-  if (!report.removed_cells.empty())
-    std::erase_if(report.relabelled_cells, [&](std::uint32_t id) { return !cells_.contains(id); });
-  report.updated_surfaces.assign(touched.begin(), touched.end());
-  shrink_if_sparse(cells_);
-  shrink_if_sparse(surfaces_);
-  std::sort(report.relabelled_cells.begin(), report.relabelled_cells.end());
-  report.relabelled_cells.erase(std::unique(report.relabelled_cells.begin(), report.relabelled_cells.end()),
-                                report.relabelled_cells.end());
+  age_and_finish(last_frame_id + age, last_frame_id + quiet, touched, report);
   report.merge_ms =
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
   return report;

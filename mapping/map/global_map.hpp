@@ -108,6 +108,7 @@ struct SurfaceMerge {
 /// What one integrate() call changed.
 struct MergeReport {
   std::uint64_t frame_id = 0;
+  bool settled = false;  ///< the report of settle() after frame_id, not of a frame
   std::size_t input_cells = 0;    ///< cells handed in
   std::size_t rejected_cells = 0; ///< planeless, degenerate, beyond max_range_m or max_depth_sigma_m, below min_inlier_ratio
   std::size_t fused_cells = 0;    ///< re-observations folded into a surface, not stored
@@ -195,10 +196,11 @@ class GlobalMap {
   /// what integrate() would do to it over the next frames if none of them reached it, except
   /// that nothing is pruned as unconfirmed (the last frames' single views may be confirmed in a
   /// later session). Every cell not yet consolidated is consolidated (as if
-  /// consolidate_after_frames had passed), then every live surface goes quiet: it joins a neighbour or is pruned as a redundant fragment, as at
-  /// dormancy, or it drops its detail (MergeReport::dormant_surfaces). The report carries
-  /// frame_id = last_frame_id and the changes, for the store (io::MapStore::commit_settle), the
-  /// map's consumers and the merge scores. A settled map is smaller in RAM (no live working set)
+  /// consolidate_after_frames had passed), then every live surface goes quiet: it joins a
+  /// neighbour or is pruned as a redundant fragment, as at dormancy, or it drops its detail
+  /// (MergeReport::dormant_surfaces). The report (MergeReport::settled, frame_id =
+  /// last_frame_id) carries the changes for the store (io::MapStore::commit_settle), the map's
+  /// consumers and the merge scores. A settled map is smaller in RAM (no live working set)
   /// and integrates on like any map: new cells near a dormant surface wake it. Settling a settled
   /// map changes nothing. Needs consolidate_after_frames and dormant_after_frames > 0 for the
   /// respective steps (0: that step is skipped).
@@ -292,9 +294,12 @@ class GlobalMap {
                        const Eigen::Vector3d& camera_centre, std::set<std::uint32_t>& touched,
                        MergeReport& report);
 
-  /// MapConfig::unconfirmed_timeout_frames: surfaces still holding a single observation that
-  /// were stored that many frames before `frame_id` or earlier, and not in `touched`, are pruned.
-  void prune_timed_out(std::uint64_t frame_id, const std::set<std::uint32_t>& touched, MergeReport& report);
+  /// The end of integrate() and settle(): consolidation as of `consolidation_frame`, dormancy as
+  /// of `dormancy_frame`, then the report's lists as consumers read them (relabelled cells that
+  /// left the map dropped, sorted and unique; updated_surfaces = `touched`) and the containers
+  /// shrunk when sparse.
+  void age_and_finish(std::uint64_t consolidation_frame, std::uint64_t dormancy_frame,
+                      std::set<std::uint32_t>& touched, MergeReport& report);
   /// MapConfig::consolidate_after_frames: unites the old cells of each surface's tiles that
   /// cells coming of age this frame fall in; the cells leave the map (report.removed_cells) and
   /// their unions enter it (report.added_cells); `touched` gains their surfaces.

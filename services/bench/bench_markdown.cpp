@@ -229,8 +229,8 @@ std::string format_markdown(const BenchReport& r) {
                                       number(static_cast<double>(value) / base, 2), count};
     };
     std::vector<std::vector<std::string>> rows = {
-        row(r.replay.settled ? "planecell map in RAM (settled)" : "planecell map in RAM", mem.planecell_ram_bytes,
-            std::to_string(mem.planecell_cells) + " cells"),
+        row(r.replay.settled ? "planecell map in RAM (settled)" : "planecell map in RAM",
+            mem.planecell_ram_bytes, std::to_string(mem.planecell_cells) + " cells"),
         row("planecell map store (disk)", mem.planecell_store_bytes,
             std::to_string(r.map_cells) + " cells, " + std::to_string(r.map_surfaces) +
                 " surfaces"),

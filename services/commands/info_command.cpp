@@ -217,9 +217,7 @@ std::string describe_map_store(const fs::path& path) {
   const io::MapStore store(path);
   io::StoredMap contents = store.load();
   const bool settled = contents.settled;
-  const map::GlobalMap global_map =
-      map::GlobalMap::restore({}, std::move(contents.cells), std::move(contents.surfaces), contents.next_cell_id,
-                              contents.next_surface_id, contents.last_frame_id, contents.settled);
+  const map::GlobalMap global_map = io::load_map(std::move(contents));
   std::size_t planecells_with_surface = 0;
   for (const auto& [id, cell] : global_map.cells())
     if (cell.surface != kNoSurface) ++planecells_with_surface;

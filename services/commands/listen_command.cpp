@@ -114,7 +114,8 @@ void add_listen_command(CLI::App& app, CommandContext& context) {
     }
     const io::MapMirror& mirror = listener.mirror();
     std::cout << "listen: " << listener.updates() << " frame updates applied (last frame " << mirror.last_frame_id
-              << (listener.settled() ? ", the map settled after it" : "") << "), " << listener.rejected() << " messages rejected, " << listener.incomplete()
+              << (listener.settled() ? ", the map settled after it" : "") << "), " << listener.rejected()
+              << " messages rejected, " << listener.incomplete()
               << " frames incomplete; mirror " << mirror.cells.size() << " cells\n";
     const map::GlobalMap map = mirror_to_map(mirror, config.map);
     for (const auto& p : points) {

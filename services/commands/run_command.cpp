@@ -188,12 +188,9 @@ void add_run_command(CLI::App& app, CommandContext& context) {
     // Settled after the last frame in the map (map.settle_at_close), committed and published.
     std::optional<std::uint64_t> last_frame = stats.last_merged_frame;
     if (!last_frame && !committed.empty()) last_frame = *committed.rbegin();
-    if (const auto settled = settle_stage(map, store.get(), last_frame)) {
-      MapDelta delta = make_delta(*settled, map);
-      delta.settled = true;
-      for (const auto& chunk : io::encode_map_update(delta, now_utime()))
+    if (const auto settled = settle_stage(map, store.get(), last_frame))
+      for (const auto& chunk : io::encode_map_update(make_delta(*settled, map), now_utime()))
         publish_message(*lcm, config.lcm.map_update_channel, chunk);
-    }
     close_store(store);       // compacts, closes: checkpoints the WAL into the database
     publish_stats();
     std::cout << "run: " << stats.frames_done << " frames mapped, " << stats.frames_dropped << " dropped, "

@@ -110,6 +110,7 @@ void voxel_stage(FrameWork& work, voxel::VoxelMap& voxels, const VoxelConfig& co
 MapDelta make_delta(const map::MergeReport& report, const map::GlobalMap& map) {
   MapDelta delta;
   delta.frame_id = report.frame_id;
+  delta.settled = report.settled;
   delta.added_cells.reserve(report.added_cells.size());
   for (const auto id : report.added_cells)
     if (const map::MapCell* cell = map.cell(id)) delta.added_cells.push_back(*cell);
