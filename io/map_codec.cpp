@@ -124,21 +124,22 @@ std::uint32_t get_u32_varint(Reader& r, const char* what) {
 /// Versions 6 and 7: the histogram weight and areas, the mean colour (floats) and the bounds, as
 /// real groups.
 void put_areas_colour_bounds(Writer& w, const map::Surface& s) {
-  put_reals(w, std::array{s.histogram_weight_m2, s.observed_area_m2, s.area_m2});
+  put_reals(w, std::array<double, 3>{s.histogram_weight_m2, s.observed_area_m2, s.area_m2});
   w.put_matrix(s.mean_rgb);
-  put_reals(w, std::array{s.bounds.min.x(), s.bounds.min.y(), s.bounds.min.z(), s.bounds.max.x(),
-                          s.bounds.max.y(), s.bounds.max.z()});
+  const Eigen::Vector3d lo = s.bounds.min(), hi = s.bounds.max();
+  put_reals(w, std::array{lo.x(), lo.y(), lo.z(), hi.x(), hi.y(), hi.z()});
 }
 
 void get_areas_colour_bounds(Reader& r, map::Surface& s) {
   std::array<double, 3> areas{};
   get_reals(r, areas);
-  s.histogram_weight_m2 = areas[0], s.observed_area_m2 = areas[1], s.area_m2 = areas[2];
+  s.histogram_weight_m2 = static_cast<float>(areas[0]);
+  s.observed_area_m2 = static_cast<float>(areas[1]);
+  s.area_m2 = static_cast<float>(areas[2]);
   r.get_matrix(s.mean_rgb);
   std::array<double, 6> bounds{};
   get_reals(r, bounds);
-  s.bounds.min = {bounds[0], bounds[1], bounds[2]};
-  s.bounds.max = {bounds[3], bounds[4], bounds[5]};
+  s.bounds = map::Aabb{{bounds[0], bounds[1], bounds[2]}, {bounds[3], bounds[4], bounds[5]}};
 }
 
 /// The raw surface encoding of `version` ≤ 6 (a live surface: these versions had no dormant
@@ -158,7 +159,8 @@ std::vector<std::uint8_t> encode_surface_legacy(const map::Surface& s, int versi
   const auto count = [&](std::size_t n) {
     v6 ? w.put_varint(n) : w.put(static_cast<std::uint32_t>(n));
   };
-  reals({s.plane.normal.x(), s.plane.normal.y(), s.plane.normal.z(), s.plane.offset});
+  const Eigen::Vector3d n = s.plane.normal();
+  reals({n.x(), n.y(), n.z(), s.plane.offset()});
   w.put(s.information);
   w.put_matrix(d.moment_sum);
   w.put_matrix(d.moment_outer);
@@ -166,12 +168,12 @@ std::vector<std::uint8_t> encode_surface_legacy(const map::Surface& s, int versi
   if (v6) {
     put_areas_colour_bounds(w, s);
   } else {  // version 5 kept the colour between the histogram weight and the areas
-    w.put(s.histogram_weight_m2);
+    w.put(double{s.histogram_weight_m2});
     w.put_matrix(s.mean_rgb);
-    w.put(s.observed_area_m2);
-    w.put(s.area_m2);
-    w.put_matrix(s.bounds.min);
-    w.put_matrix(s.bounds.max);
+    w.put(double{s.observed_area_m2});
+    w.put(double{s.area_m2});
+    w.put_matrix(s.bounds.min());
+    w.put_matrix(s.bounds.max());
   }
   reals({d.basis.origin.x(), d.basis.origin.y(), d.basis.origin.z()});
   reals({d.basis.u.x(), d.basis.u.y(), d.basis.u.z(), d.basis.v.x(), d.basis.v.y(), d.basis.v.z()});
@@ -194,11 +196,12 @@ map::Surface decode_surface_legacy(std::uint32_t id, const void* data, std::size
   if (v6) {
     std::array<double, 4> plane{};
     get_reals(r, plane);
-    s.plane.normal = {plane[0], plane[1], plane[2]};
-    s.plane.offset = plane[3];
+    s.plane = Plane3{{plane[0], plane[1], plane[2]}, plane[3]};
   } else {
-    r.get_matrix(s.plane.normal);
-    s.plane.offset = r.get<double>();
+    Plane3 plane;
+    r.get_matrix(plane.normal);
+    plane.offset = r.get<double>();
+    s.plane = plane;
   }
   s.information = r.get<double>();
   r.get_matrix(d.moment_sum);
@@ -216,12 +219,14 @@ map::Surface decode_surface_legacy(std::uint32_t id, const void* data, std::size
     s.cells.resize(cells);
     for (auto& c : s.cells) c = get_u32_varint(r, "cell id");
   } else {
-    s.histogram_weight_m2 = r.get<double>();
+    s.histogram_weight_m2 = static_cast<float>(r.get<double>());
     r.get_matrix(s.mean_rgb);
-    s.observed_area_m2 = r.get<double>();
-    s.area_m2 = r.get<double>();
-    r.get_matrix(s.bounds.min);
-    r.get_matrix(s.bounds.max);
+    s.observed_area_m2 = static_cast<float>(r.get<double>());
+    s.area_m2 = static_cast<float>(r.get<double>());
+    map::Aabb bounds;
+    r.get_matrix(bounds.min);
+    r.get_matrix(bounds.max);
+    s.bounds = bounds;
     r.get_matrix(d.basis.origin);
     r.get_matrix(d.basis.u);
     r.get_matrix(d.basis.v);
@@ -241,7 +246,8 @@ map::Surface decode_surface_legacy(std::uint32_t id, const void* data, std::size
 /// footprint) for a live surface, 0 and its quiet moments (9 floats) for a dormant one.
 std::vector<std::uint8_t> encode_surface_v7(const map::Surface& s) {
   Writer w;
-  put_reals(w, std::array{s.plane.normal.x(), s.plane.normal.y(), s.plane.normal.z(), s.plane.offset});
+  const Eigen::Vector3d n = s.plane.normal();
+  put_reals(w, std::array{n.x(), n.y(), n.z(), s.plane.offset()});
   w.put(s.information);
   w.put(s.histogram.mask());
   for (std::uint16_t h : s.histogram.nonzero()) w.put(h);
@@ -275,8 +281,7 @@ map::Surface decode_surface_v7(std::uint32_t id, const void* data, std::size_t s
   s.id = id;
   std::array<double, 4> plane{};
   get_reals(r, plane);
-  s.plane.normal = {plane[0], plane[1], plane[2]};
-  s.plane.offset = plane[3];
+  s.plane = Plane3{{plane[0], plane[1], plane[2]}, plane[3]};
   s.information = r.get<double>();
   const auto mask = r.get<std::uint64_t>();
   map::CompactHistogram::Bins bins{};

@@ -44,10 +44,10 @@ OutlineExport write_outlines_json(const std::filesystem::path& path, const map::
     }
     counts.rings += outline.size();
     ++counts.surfaces;
-    const auto& n = surface.plane.normal;
+    const Eigen::Vector3d n = surface.plane.normal();
     surfaces.push_back(
         {{"id", id},
-         {"plane", {n.x(), n.y(), n.z(), surface.plane.offset}},
+         {"plane", {n.x(), n.y(), n.z(), surface.plane.offset()}},
          {"mean_rgb", {surface.mean_rgb.x(), surface.mean_rgb.y(), surface.mean_rgb.z()}},
          {"area_m2", surface.area_m2},
          {"observations", surface.observations},

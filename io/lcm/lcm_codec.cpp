@@ -299,8 +299,9 @@ planecell_lcm::planecell_t to_lcm(const map::MapCell& cell) {
   m.id = static_cast<std::int32_t>(cell.id);
   m.frame_id = static_cast<std::int64_t>(cell.frame_id);
   m.surface = static_cast<std::int32_t>(cell.surface);
-  for (int i = 0; i < 3; ++i) m.normal[i] = cell.plane.normal[i];
-  m.offset = cell.plane.offset;
+  const Plane3 plane = cell.plane;
+  for (int i = 0; i < 3; ++i) m.normal[i] = plane.normal[i];
+  m.offset = plane.offset;
   for (int i = 0; i < 3; ++i) m.mean_rgb[i] = cell.mean_rgb[i];
   m.depth_sigma_m = cell.depth_sigma_m;
   m.num_vertices = static_cast<std::int32_t>(cell.vertices_m.size());
@@ -323,8 +324,9 @@ map::MapCell from_lcm(const planecell_lcm::planecell_t& m) {
   cell.id = static_cast<std::uint32_t>(m.id);
   cell.frame_id = static_cast<std::uint64_t>(m.frame_id);
   cell.surface = static_cast<std::uint32_t>(m.surface);
-  cell.plane.normal = Eigen::Vector3d(m.normal[0], m.normal[1], m.normal[2]);
-  cell.plane.offset = m.offset;
+  cell.plane = Plane3{Eigen::Vector3d(m.normal[0], m.normal[1], m.normal[2]), m.offset};
+  if (!cell.plane.normal().allFinite() || !std::isfinite(cell.plane.offset()))
+    throw InputError(name + ": plane beyond float range (the map keeps planes as floats)");
   cell.vertices_m.reserve(n);
   for (std::size_t i = 0; i < n; ++i) {
     const auto& xyz = m.vertices_m[i];

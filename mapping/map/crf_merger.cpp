@@ -287,12 +287,12 @@ EdgeEvaluation CrfMerger::evaluate(const MergeUnit& a, const LabelState& label_a
   const double sigma = config_.residual_scale_m;
   const double delta_a = colour_similarity(a.histogram ? *a.histogram : label_a.histogram, label_b.histogram);
   const double delta_b = colour_similarity(b.histogram ? *b.histogram : label_b.histogram, label_a.histogram);
-  const double phi = pose_potential(a.area_m2, b.area_m2, plane_residual(*a.plane, vb, sigma),
-                                    plane_residual(*b.plane, va, sigma));
+  const double phi = pose_potential(a.area_m2, b.area_m2, plane_residual(a.plane, vb, sigma),
+                                    plane_residual(b.plane, va, sigma));
   const Eigen::Vector3d m = boundary_point(va, vb);
-  const double s = a.plane->normal.dot(b.plane->normal) < 0.0 ? -1.0 : 1.0;
+  const double s = a.plane.normal.dot(b.plane.normal) < 0.0 ? -1.0 : 1.0;
   const double theta_c =
-      std::abs(a.plane->signed_distance(m) - s * b.plane->signed_distance(m)) / sigma;
+      std::abs(a.plane.signed_distance(m) - s * b.plane.signed_distance(m)) / sigma;
   ev.gain = delta_a + delta_b + phi + boundary_potential(boundary_m, theta_c);
   return ev;
 }

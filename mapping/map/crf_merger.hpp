@@ -108,7 +108,7 @@ struct LabelState {
 /// A planecell taking part in a merge (world frame), with its current label.
 struct MergeUnit {
   std::uint32_t label = 0;
-  const Plane3* plane = nullptr;
+  Plane3 plane;
   std::span<const Eigen::Vector3f> vertices;
   /// The cell's own colour histogram (a new cell); nullptr for a stored cell, whose colour evidence
   /// is its label's (the map keeps colour per surface, not per cell).

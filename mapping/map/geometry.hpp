@@ -82,6 +82,64 @@ inline Plane3 to_float_precision(const Plane3& p) {
 inline PlaneBasis to_float_precision(const PlaneBasis& b) {
   return {to_float_precision(b.origin), to_float_precision(b.u), to_float_precision(b.v)};
 }
+/// A plane kept at storage precision: unit normal and offset as floats, 16 B instead of
+/// Plane3's 32. Built from a Plane3 by to_float_precision (so lossless for a plane the map has
+/// rounded), read back as a Plane3 of doubles.
+class StoredPlane {
+ public:
+  StoredPlane() = default;
+  StoredPlane(const Plane3& plane)  // NOLINT(google-explicit-constructor): a Plane3 stored
+      : normal_(to_float_precision(plane.normal).cast<float>()),
+        offset_(static_cast<float>(to_float_precision(plane.offset))) {}
+  operator Plane3() const { return {normal(), offset()}; }  // NOLINT(google-explicit-constructor)
+  Eigen::Vector3d normal() const { return normal_.cast<double>(); }
+  double offset() const { return offset_; }
+  /// n·X + e (m), in double.
+  double signed_distance(const Eigen::Vector3d& point) const { return normal().dot(point) + offset(); }
+  bool operator==(const StoredPlane&) const = default;
+
+ private:
+  Eigen::Vector3f normal_ = Eigen::Vector3f::UnitZ();
+  float offset_ = 0.0f;
+};
+
+/// An axis-aligned box kept as floats, 24 B instead of Aabb's 48. Built from an Aabb rounded
+/// outwards (min down, max up to the next float), so it always contains the box it stores and
+/// is exact for a box of float coordinates (the bounds of a map polygon's vertices).
+class StoredBox {
+ public:
+  StoredBox() = default;
+  StoredBox(const Aabb& box)  // NOLINT(google-explicit-constructor): an Aabb stored
+      : min_(outward(box.min, -1.0)), max_(outward(box.max, +1.0)) {}
+  operator Aabb() const { return {min(), max()}; }  // NOLINT(google-explicit-constructor)
+  Eigen::Vector3d min() const { return min_.cast<double>(); }
+  Eigen::Vector3d max() const { return max_.cast<double>(); }
+  bool empty() const { return (min_.array() > max_.array()).any(); }
+  void extend(const Aabb& other) {
+    Aabb box = *this;
+    box.extend(other);
+    *this = box;
+  }
+  bool operator==(const StoredBox&) const = default;
+
+ private:
+  /// Each coordinate to the nearest float, moved one float further towards `direction` when
+  /// rounding went the other way (±∞ stay).
+  static Eigen::Vector3f outward(const Eigen::Vector3d& v, double direction) {
+    Eigen::Vector3f out;
+    for (int k = 0; k < 3; ++k) {
+      float f = static_cast<float>(to_float_precision(v[k]));
+      if ((static_cast<double>(f) - v[k]) * direction < 0.0)
+        f = std::nextafter(f, direction > 0.0 ? std::numeric_limits<float>::infinity()
+                                              : -std::numeric_limits<float>::infinity());
+      out[k] = f;
+    }
+    return out;
+  }
+  Eigen::Vector3f min_ = Eigen::Vector3f::Constant(std::numeric_limits<float>::infinity());
+  Eigen::Vector3f max_ = Eigen::Vector3f::Constant(-std::numeric_limits<float>::infinity());
+};
+
 /// The coordinate k mm on the grid: float(k / 1000) m (io/map_codec decodes with it).
 inline float from_mm(std::int64_t k) { return static_cast<float>(static_cast<double>(k) / 1000.0); }
 inline float snap_to_mm(float x) {

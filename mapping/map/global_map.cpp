@@ -270,8 +270,8 @@ GlobalMap::GlobalMap(const MapConfig& config)
 
 bool same_surface(const Surface& a, const Surface& b) {
   return a.id == b.id && a.observations == b.observations &&
-         a.last_observed_frame == b.last_observed_frame && a.plane.normal == b.plane.normal &&
-         a.plane.offset == b.plane.offset && a.information == b.information &&
+         a.last_observed_frame == b.last_observed_frame && a.plane.normal() == b.plane.normal() &&
+         a.plane.offset() == b.plane.offset() && a.information == b.information &&
          a.histogram == b.histogram && a.histogram_weight_m2 == b.histogram_weight_m2 &&
          a.mean_rgb == b.mean_rgb && a.observed_area_m2 == b.observed_area_m2 &&
          a.area_m2 == b.area_m2 && a.bounds == b.bounds && a.cells == b.cells &&
@@ -352,7 +352,7 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
   std::unordered_map<std::uint32_t, LabelState> labels;
   for (std::size_t k = 0; k < fresh.size(); ++k) {
     const auto label = next_surface_id_ + static_cast<std::uint32_t>(k);
-    units.push_back({label, &fresh[k]->plane, fresh[k]->vertices_m, &fresh[k]->histogram, fresh_area[k]});
+    units.push_back({label, fresh[k]->plane, fresh[k]->vertices_m, &fresh[k]->histogram, fresh_area[k]});
     // The range widens by the noise along the normal (MapConfig::normal_depth_noise); the plane
     // fits keep weighting by σ_Z.
     const double range_sigma = config_.normal_depth_noise ? normal_depth_sigma_m(*fresh[k], camera_centre)
@@ -450,7 +450,7 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
       if (neighbour) {
         auto [it, inserted] = unit_of_map_cell.try_emplace(id, static_cast<std::uint32_t>(units.size()));
         if (inserted) {
-          units.push_back({old.surface, &old.plane, old.vertices_m, nullptr, polygon_area_m2(old.vertices_m)});
+          units.push_back({old.surface, old.plane, old.vertices_m, nullptr, polygon_area_m2(old.vertices_m)});
           if (!labels.contains(old.surface)) {
             wake(surfaces_.at(old.surface));  // its label state needs the moments
             labels.emplace(old.surface, state_of_surface(surface));
@@ -460,8 +460,8 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
                          std::sqrt(std::min(fresh_area[k], units[it->second].area_m2))});
       }
       if (!coverage_rule) continue;
-      if (std::abs(cell.plane.normal.dot(old.plane.normal)) < min_coverage_cos &&
-          std::abs(cell.plane.normal.dot(surface.plane.normal)) < min_coverage_cos)
+      if (std::abs(cell.plane.normal.dot(old.plane.normal())) < min_coverage_cos &&
+          std::abs(cell.plane.normal.dot(surface.plane.normal())) < min_coverage_cos)
         continue;
       const double sigma = std::hypot(static_cast<double>(cell.depth_sigma_m),
                                       static_cast<double>(old.depth_sigma_m));
@@ -693,7 +693,7 @@ void GlobalMap::bridge_surfaces(std::span<const Planecell* const> fresh, std::sp
       if (other_it == surfaces_.end()) continue;
       Surface& self = surfaces_.at(id);
       Surface& other = other_it->second;
-      if (other.observations < mature || std::abs(other.plane.normal.dot(self.plane.normal)) < min_cos ||
+      if (other.observations < mature || std::abs(other.plane.normal().dot(self.plane.normal())) < min_cos ||
           std::max(self.area_m2, other.area_m2) < config_.bridge_min_area_m2) {
         checked.insert(other_id);
         continue;
@@ -710,8 +710,8 @@ void GlobalMap::bridge_surfaces(std::span<const Planecell* const> fresh, std::sp
       wake(self);
       wake(other);
       LabelState a = state_of_surface(self), b = state_of_surface(other);
-      const MergeUnit ua{id, &cell.plane, cell.vertices_m, nullptr, polygon_area_m2(cell.vertices_m)};
-      const MergeUnit ub{other_id, &old.plane, old.vertices_m, nullptr, polygon_area_m2(old.vertices_m)};
+      const MergeUnit ua{id, cell.plane, cell.vertices_m, nullptr, polygon_area_m2(cell.vertices_m)};
+      const MergeUnit ub{other_id, old.plane, old.vertices_m, nullptr, polygon_area_m2(old.vertices_m)};
       if (!merger_.evaluate(ua, a, ub, b, 0.0).in_range) continue;
       if (!hidden_behind(0.5 * (vertex_centroid(cell.vertices_m) + vertex_centroid(old.vertices_m)), id, other_id))
         continue;
@@ -766,7 +766,7 @@ bool GlobalMap::join_neighbour(Surface& surface, std::set<std::uint32_t>& touche
       // Its points on the neighbour's plane, its normal (a small patch's is loosely determined)
       // near the neighbour's, and the CRF's colour gate.
       const double angle_deg =
-          std::acos(std::min(1.0, std::abs(surface.plane.normal.dot(other.plane.normal)))) * 180.0 / M_PI;
+          std::acos(std::min(1.0, std::abs(surface.plane.normal().dot(other.plane.normal())))) * 180.0 / M_PI;
       if (angle_deg > config_.fragment_join_angle_deg ||
           self.moments.rms_distance_m(other.plane) > config_.fragment_join_distance_m ||
           colour_similarity(self.histogram, expand(other.histogram)) < config_.min_colour_similarity)
@@ -850,8 +850,8 @@ void GlobalMap::consolidate(std::uint64_t frame_id, std::set<std::uint32_t>& tou
   const std::uint32_t first_union = next_cell_id_;
   for (const auto& [surface_id, tiles] : due) {
     Surface& surface = surfaces_.at(surface_id);
-    const Eigen::Vector3d n = surface.plane.normal.normalized();
-    const double e = surface.plane.offset / surface.plane.normal.norm();
+    const Eigen::Vector3d n = surface.plane.normal().normalized();
+    const double e = surface.plane.offset() / surface.plane.normal().norm();
     // Each due square's cells, each cell's square computed once.
     std::map<Tile, std::vector<const MapCell*>> in_square;
     for (std::uint32_t id : surface.cells)

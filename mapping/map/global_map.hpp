@@ -55,25 +55,27 @@ QuietMoments quiet_moments_of(const PlaneMoments& moments);
 /// The moments of weight `weight` that `quiet` summarises.
 PlaneMoments moments_from(const QuietMoments& quiet, double weight);
 
-/// A surface: coplanar cells sharing one CRF label.
+/// A surface: coplanar cells sharing one CRF label. Its reals are kept at storage precision
+/// (to_float_precision) in floats where the map rounds them anyway, so the record is as small as
+/// what io::MapStore writes for it; `information` stays a double (a sum of weights).
 struct Surface {
   std::uint32_t id = 0;
   std::uint32_t observations = 0;  ///< integrated cells, fused ones included
   /// Last frame whose cells reached the surface (stored, fused or merged into it; absorbing
   /// another surface counts too): its dormancy clock.
   std::uint64_t last_observed_frame = 0;
-  Plane3 plane;                  ///< least-squares plane of all integrated cells (world)
+  StoredPlane plane;             ///< least-squares plane of all integrated cells (world)
   /// Σ w of the moments behind `plane` (w = area / σ² per observation): the surface's
   /// information, kept when it is dormant (σ_eff and the rebuilt moments need it).
   double information = 0.0;
   CompactHistogram histogram;  ///< area-weighted mean of the integrated cells' histograms
-  double histogram_weight_m2 = 0.0;
-  Eigen::Vector3f mean_rgb = Eigen::Vector3f::Zero();  ///< area-weighted mean colour (0..255 RGB)
-  double observed_area_m2 = 0.0;  ///< Σ area of every integrated cell, fused ones included
+  float histogram_weight_m2 = 0.0f;
+  float observed_area_m2 = 0.0f;  ///< Σ area of every integrated cell, fused ones included
   /// Area of the footprint (union of all integrated cells); a dormant surface keeps the figure
   /// it had when it went dormant, and a rebuilt footprint adds to it from then on.
-  double area_m2 = 0.0;
-  Aabb bounds;                    ///< bounds of every integrated cell's vertices
+  float area_m2 = 0.0f;
+  Eigen::Vector3f mean_rgb = Eigen::Vector3f::Zero();  ///< area-weighted mean colour (0..255 RGB)
+  StoredBox bounds;               ///< bounds of every integrated cell's vertices
   std::vector<std::uint32_t> cells;  ///< stored member cells (map cell ids)
   HeapOptional<SurfaceDetail> detail;  ///< empty while the surface is dormant
   QuietMoments quiet_moments;  ///< a dormant surface's moments; zero while it is live

@@ -10,6 +10,7 @@
 
 #include "core/plane.hpp"
 #include "core/planecell.hpp"
+#include "mapping/map/geometry.hpp"
 
 namespace planecell::map {
 
@@ -17,7 +18,7 @@ struct MapCell {
   std::uint32_t id = 0;                 ///< map cell id
   std::uint32_t surface = kNoSurface;   ///< CRF surface label
   std::uint64_t frame_id = 0;           ///< frame it was extracted from
-  Plane3 plane;                         ///< n·X + e = 0, world frame
+  StoredPlane plane;                    ///< n·X + e = 0, world frame (storage precision)
   std::vector<Eigen::Vector3f> vertices_m;  ///< ordered polygon, world frame
   Eigen::Vector3f mean_rgb = Eigen::Vector3f::Zero();  ///< 0..255, R G B order
   /// 1-σ depth uncertainty of the plane at the polygon's centroid (m; Planecell::depth_sigma_m).
@@ -25,7 +26,7 @@ struct MapCell {
 
   bool operator==(const MapCell& o) const {
     return id == o.id && surface == o.surface && frame_id == o.frame_id &&
-           plane.normal == o.plane.normal && plane.offset == o.plane.offset &&
+           plane == o.plane &&
            vertices_m == o.vertices_m && mean_rgb == o.mean_rgb && depth_sigma_m == o.depth_sigma_m;
   }
 };

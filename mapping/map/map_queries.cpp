@@ -54,7 +54,7 @@ std::optional<GroundHit> GlobalMap::ground_under(const Eigen::Vector3d& point,
   for (std::uint32_t id : query_cells(column.inflated(1e-6))) {
     const MapCell& cell = cells_.at(id);
     const Surface& s = surfaces_.at(cell.surface);
-    const double n_up = s.plane.normal.dot(up_);
+    const double n_up = s.plane.normal().dot(up_);
     if (std::abs(n_up) < min_cos) continue;
     // Vertical line X = p − h·up meets the surface's plane where n·p − h·(n·up) + e = 0.
     const double h = s.plane.signed_distance(point) / n_up;
@@ -85,9 +85,9 @@ HeightMap GlobalMap::height_map(const Eigen::Vector2d& origin_ab, int cols, int 
   double h_min = std::numeric_limits<double>::infinity(), h_max = -h_min;
   for (const auto& [id, s] : surfaces_)
     for (int corner = 0; corner < 8; ++corner) {
-      const Eigen::Vector3d c((corner & 1) ? s.bounds.max.x() : s.bounds.min.x(),
-                              (corner & 2) ? s.bounds.max.y() : s.bounds.min.y(),
-                              (corner & 4) ? s.bounds.max.z() : s.bounds.min.z());
+      const Eigen::Vector3d c((corner & 1) ? s.bounds.max().x() : s.bounds.min().x(),
+                              (corner & 2) ? s.bounds.max().y() : s.bounds.min().y(),
+                              (corner & 4) ? s.bounds.max().z() : s.bounds.min().z());
       h_min = std::min(h_min, c.dot(up_));
       h_max = std::max(h_max, c.dot(up_));
     }
@@ -115,7 +115,7 @@ HeightMap GlobalMap::height_map(const Eigen::Vector2d& origin_ab, int cols, int 
       a_lo = std::min(a_lo, a), a_hi = std::max(a_hi, a), b_lo = std::min(b_lo, b), b_hi = std::max(b_hi, b);
     }
     bg::correct(poly);
-    const double n_up = c.plane.normal.dot(up_);
+    const double n_up = c.plane.normal().dot(up_);
     if (std::abs(n_up) > 0.2) {
       // Sloped cell: its plane's height at each covered square centre, X = a·â + b·b̂ + h·up.
       const int c0 = static_cast<int>(std::floor((a_lo - origin_ab.x()) / resolution_m));

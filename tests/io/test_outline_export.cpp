@@ -44,7 +44,7 @@ TEST(OutlineExport, WritesEachSurfaceWithItsPlaneAndRing) {
   for (const auto& surface : json["surfaces"]) {
     const map::Surface* s = map.surface(surface["id"].get<std::uint32_t>());
     ASSERT_NE(s, nullptr);
-    EXPECT_NEAR(surface["plane"][3].get<double>(), s->plane.offset, 1e-12);
+    EXPECT_NEAR(surface["plane"][3].get<double>(), s->plane.offset(), 1e-12);
     EXPECT_NEAR(surface["area_m2"].get<double>(), 1.0, 1e-9);  // 10 × 10 bits of 10 cm
     ASSERT_EQ(surface["rings"].size(), 1u);
     const auto& ring = surface["rings"][0];

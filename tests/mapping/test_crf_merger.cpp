@@ -395,7 +395,7 @@ TEST(CircularGreedy, MergesExactlyAsEvaluatingEveryEdgeEveryRound) {
     std::unordered_map<std::uint32_t, LabelState> labels;
     for (std::size_t k = 0; k < cells.size(); ++k) {
       const double area = polygon_area_m2(cells[k].vertices_m);
-      units.push_back({static_cast<std::uint32_t>(k), &cells[k].plane, cells[k].vertices_m,
+      units.push_back({static_cast<std::uint32_t>(k), cells[k].plane, cells[k].vertices_m,
                        &cells[k].histogram, area});
       labels.emplace(static_cast<std::uint32_t>(k), state_of_cell(cells[k], area, 0.05));
     }

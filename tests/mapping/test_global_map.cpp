@@ -725,8 +725,8 @@ TEST(Dormancy, AFragmentGoingDormantJoinsTheLargerNeighbourItLiesOn) {
     EXPECT_EQ(joined.cells.back(), fragment_cell[0]);
     EXPECT_EQ(joined.observations, 7u * 8u + 2u);
     // Its plane stays the wall's: the fragment's points weigh little and straddle it.
-    EXPECT_GT(std::abs(joined.plane.normal.z()), std::cos(1.0 * M_PI / 180.0));
-    EXPECT_NEAR(std::abs(joined.plane.offset), 10.0, 0.01);
+    EXPECT_GT(std::abs(joined.plane.normal().z()), std::cos(1.0 * M_PI / 180.0));
+    EXPECT_NEAR(std::abs(joined.plane.offset()), 10.0, 0.01);
     // Too steep, or another colour: dormant, each on its own.
     for (std::size_t k : {1u, 2u}) {
       ASSERT_NE(map.surface(fragment[k]), nullptr) << k;

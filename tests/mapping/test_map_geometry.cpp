@@ -68,5 +68,43 @@ TEST(MapGeometry, WithinTestAgreesWithTheFullGapOnRandomPairs) {
   EXPECT_GT(far_pairs, 50);
 }
 
+TEST(MapGeometry, StoredPlaneKeepsAFloatPlaneExactlyAndRoundsOthersToFloat) {
+  const Plane3 awkward{Eigen::Vector3d(0.0, 0.6, 0.8), -1.0 / 3.0};  // no float among them
+  const Plane3 rounded = to_float_precision(awkward);
+  const Plane3 back = StoredPlane(rounded);
+  EXPECT_EQ(back.normal, rounded.normal);
+  EXPECT_EQ(back.offset, rounded.offset);
+  const StoredPlane stored(awkward);
+  EXPECT_EQ(stored.normal(), rounded.normal);
+  EXPECT_EQ(stored.offset(), rounded.offset);
+  EXPECT_NE(stored.offset(), awkward.offset);
+  // n·X + e at X = (0, 0, 1/0.8 · 1/3): zero for the exact plane, float rounding for the stored.
+  const Eigen::Vector3d on_plane(0.0, 0.0, 1.0 / 3.0 / 0.8);
+  EXPECT_NEAR(stored.signed_distance(on_plane), 0.0, 1e-7);
+  EXPECT_NEAR(stored.signed_distance(on_plane + 2.0 * awkward.normal), 2.0, 1e-7);
+}
+
+TEST(MapGeometry, StoredBoxKeepsAFloatBoxExactlyAndRoundsOthersOutwards) {
+  const Aabb floats{Eigen::Vector3d(-1.5, 0.25, 3.0), Eigen::Vector3d(2.0, 0.75, 1e6)};
+  EXPECT_EQ(Aabb(StoredBox(floats)), floats);
+  // 1/3 and 2/3 are no floats: the stored box must still contain the exact one, by one float
+  // step at most.
+  const Aabb thirds{Eigen::Vector3d::Constant(1.0 / 3.0), Eigen::Vector3d::Constant(2.0 / 3.0)};
+  const Aabb stored = StoredBox(thirds);
+  for (int k = 0; k < 3; ++k) {
+    EXPECT_LE(stored.min[k], thirds.min[k]);
+    EXPECT_GE(stored.max[k], thirds.max[k]);
+    EXPECT_LT(thirds.min[k] - stored.min[k], 6e-8);
+    EXPECT_LT(stored.max[k] - thirds.max[k], 6e-8);
+  }
+  EXPECT_TRUE(StoredBox().empty());
+  EXPECT_TRUE(Aabb(StoredBox()).empty());
+  StoredBox grown;
+  grown.extend(floats);
+  grown.extend(Aabb{Eigen::Vector3d(-4.0, 0.5, 2.0), Eigen::Vector3d(0.0, 8.0, 2.5)});
+  EXPECT_EQ(grown.min(), Eigen::Vector3d(-4.0, 0.25, 2.0));
+  EXPECT_EQ(grown.max(), Eigen::Vector3d(2.0, 8.0, 1e6));
+}
+
 }  // namespace
 }  // namespace planecell::map

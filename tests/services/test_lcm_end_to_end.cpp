@@ -159,8 +159,8 @@ TEST_F(LcmEndToEndTest, ListenersMirrorEqualsTheDaemonsMap) {
     const map::MapCell* m = mirror_map.cell(id);
     ASSERT_NE(m, nullptr) << "cell " << id;
     EXPECT_EQ(m->surface, cell.surface) << "cell " << id;
-    EXPECT_EQ(m->plane.normal, cell.plane.normal) << "cell " << id;
-    EXPECT_EQ(m->plane.offset, cell.plane.offset) << "cell " << id;
+    EXPECT_EQ(m->plane.normal(), cell.plane.normal()) << "cell " << id;
+    EXPECT_EQ(m->plane.offset(), cell.plane.offset()) << "cell " << id;
     EXPECT_EQ(m->vertices_m, cell.vertices_m) << "cell " << id;
     EXPECT_EQ(m->frame_id, cell.frame_id) << "cell " << id;
     daemon_labels.insert(cell.surface);
