@@ -368,7 +368,7 @@ void MapStore::write_changes(const std::string& what, const map::MergeReport& re
             .bind(2, static_cast<std::int64_t>(c->frame_id))
             .bind(3, std::int64_t{c->surface})
             .bind(4, map_codec::encode_plane(c->plane))
-            .bind(5, map_codec::encode_vertices(c->vertices_m))
+            .bind(5, map_codec::encode_vertices(c->vertices_m.vertices()))
             .bind(6, rgb.bytes)
             .bind(7, static_cast<double>(c->depth_sigma_m));
         run(cell, failed);
@@ -474,8 +474,8 @@ StoredMap MapStore::load() const {
       c.frame_id = static_cast<std::uint64_t>(cells.integer(1));
       c.surface = static_cast<std::uint32_t>(cells.integer(2));
       c.plane = map_codec::decode_plane(cells.blob(3), cells.blob_size(3), what + " plane");
-      c.vertices_m =
-          map_codec::decode_vertices(cells.blob(4), cells.blob_size(4), what + " vertices_m");
+      c.vertices_m = map::StoredPolygon(
+          map_codec::decode_vertices(cells.blob(4), cells.blob_size(4), what + " vertices_m"));
       Reader rgb(cells.blob(5), cells.blob_size(5), what + " colour");
       rgb.get_matrix(c.mean_rgb);
       rgb.expect_end();

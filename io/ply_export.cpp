@@ -42,7 +42,8 @@ std::size_t write_polygons(const std::filesystem::path& path, const std::vector<
       rgb[c] = static_cast<std::uint8_t>(std::clamp(std::round(cell.mean_rgb[c]), 0.0f, 255.0f));
     const auto base = static_cast<std::int32_t>(vertices.size());
     for (const auto& v : cell.vertices_m) vertices.push_back({v, rgb});
-    for (const auto& [i, j, k] : map::triangulate_polygon(cell.vertices_m))
+    std::vector<Eigen::Vector3f> scratch;
+    for (const auto& [i, j, k] : map::triangulate_polygon(map::as_span(cell.vertices_m, scratch)))
       faces.push_back({base + i, base + j, base + k});
   }
 

@@ -327,14 +327,16 @@ map::MapCell from_lcm(const planecell_lcm::planecell_t& m) {
   cell.plane = Plane3{Eigen::Vector3d(m.normal[0], m.normal[1], m.normal[2]), m.offset};
   if (!cell.plane.normal().allFinite() || !std::isfinite(cell.plane.offset()))
     throw InputError(name + ": plane beyond float range (the map keeps planes as floats)");
-  cell.vertices_m.reserve(n);
+  std::vector<Eigen::Vector3f> vertices;
+  vertices.reserve(n);
   for (std::size_t i = 0; i < n; ++i) {
     const auto& xyz = m.vertices_m[i];
     if (xyz.size() != 3) throw InputError(name + ": malformed vertex " + std::to_string(i));
     if (!std::isfinite(xyz[0]) || !std::isfinite(xyz[1]) || !std::isfinite(xyz[2]))
       throw InputError(name + ": vertex " + std::to_string(i) + " is NaN or Inf");
-    cell.vertices_m.emplace_back(xyz[0], xyz[1], xyz[2]);
+    vertices.emplace_back(xyz[0], xyz[1], xyz[2]);
   }
+  cell.vertices_m = map::StoredPolygon(vertices);
   cell.mean_rgb = Eigen::Vector3f(m.mean_rgb[0], m.mean_rgb[1], m.mean_rgb[2]);
   cell.depth_sigma_m = m.depth_sigma_m;
   return cell;

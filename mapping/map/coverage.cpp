@@ -24,7 +24,7 @@ bool nearly_coplanar(const Plane3& plane, const Plane3& vertices_plane,
 
 bool nearly_coplanar(const Planecell& cell, const MapCell& old, double max_angle_deg,
                      double max_distance_m) {
-  return nearly_coplanar(cell.plane, old.plane, old.vertices_m, max_angle_deg, max_distance_m);
+  return nearly_coplanar(cell.plane, old.plane, old.vertices_m.vertices(), max_angle_deg, max_distance_m);
 }
 
 CoverageGrid coverage_grid(const Plane3& plane, std::span<const Eigen::Vector3f> vertices, int samples) {

@@ -69,10 +69,13 @@ double covered_fraction(const Plane3& plane, std::span<const Eigen::Vector3f> ve
 template <class Cell, class Covering>
 double covered_fraction(const Cell& cell, const std::vector<const Covering*>& covering,
                         int samples = kCoverageSamples, double min_fraction = 0.0) {
+  std::vector<std::vector<Eigen::Vector3f>> scratch(covering.size() + 1);
   std::vector<std::span<const Eigen::Vector3f>> polygons;
   polygons.reserve(covering.size());
-  for (const Covering* c : covering) polygons.emplace_back(c->vertices_m);
-  return covered_fraction(cell.plane, cell.vertices_m, polygons, samples, min_fraction);
+  for (std::size_t k = 0; k < covering.size(); ++k)
+    polygons.push_back(as_span(covering[k]->vertices_m, scratch[k]));
+  return covered_fraction(cell.plane, as_span(cell.vertices_m, scratch.back()), polygons, samples,
+                          min_fraction);
 }
 
 /// Whether the `covering` cells cover at least `min_fraction` of `cell`:

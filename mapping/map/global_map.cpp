@@ -406,13 +406,20 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
   const auto max_age = static_cast<std::uint64_t>(std::max(0, config_.unconfirmed_max_age_frames));
   const double reach = coverage_rule ? std::max(gap, config_.redundant_max_distance_m) : gap;
   std::vector<std::uint32_t> nearby;  // index candidates of one new cell (storage reused)
-  /// Stored cells met this frame with their surface and bounds: neighbouring new cells share most
-  /// of their candidates, so each stored cell's bounds are computed once per frame, not once per
-  /// new cell (nothing is added to or removed from the map before step 5).
+  /// Stored cells met this frame with their surface and bounds, and their polygon decoded
+  /// (StoredPolygon) the first time a test needs it: neighbouring new cells share most of their
+  /// candidates, so each stored cell is decoded once per frame, not once per new cell (nothing is
+  /// added to or removed from the map before step 5). The merge units of stored cells view those
+  /// vertices (hash nodes do not move; both live to the end of integrate).
   struct MetCell {
     const MapCell* cell = nullptr;
     const Surface* surface = nullptr;
     Aabb box;
+    std::vector<Eigen::Vector3f> vertices;  ///< empty until decoded (a map polygon has ≥ 3)
+    std::span<const Eigen::Vector3f> polygon() {
+      if (vertices.empty()) cell->vertices_m.vertices_into(vertices);
+      return vertices;
+    }
   };
   std::unordered_map<std::uint32_t, MetCell> met_cells;
   // Coverage accepts normals at most 2·redundant_normal_angle_deg apart (nearly_coplanar below):
@@ -437,8 +444,9 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
       auto [met, first_time] = met_cells.try_emplace(id);
       if (first_time) {
         const MapCell& c = cells_.at(id);
-        met->second = {&c, &surfaces_.at(c.surface), bounds_of(c.vertices_m)};
+        met->second = {&c, &surfaces_.at(c.surface), bounds_of(c.vertices_m), {}};
       }
+      MetCell& met_cell = met->second;
       const MapCell& old = *met->second.cell;
       const Aabb& old_box = met->second.box;
       if (!old_box.overlaps(reach_box)) continue;
@@ -446,11 +454,11 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
       if (max_age > 0 && old.frame_id + max_age <= frame_id && surface.observations == 1)
         unconfirmed.insert(old.surface);
       const bool neighbour = near_box.overlaps(old_box) &&
-                             polygons_within_m(cell.plane, cell.vertices_m, box, old.plane, old.vertices_m, old_box, gap);
+                             polygons_within_m(cell.plane, cell.vertices_m, box, old.plane, met_cell.polygon(), old_box, gap);
       if (neighbour) {
         auto [it, inserted] = unit_of_map_cell.try_emplace(id, static_cast<std::uint32_t>(units.size()));
         if (inserted) {
-          units.push_back({old.surface, old.plane, old.vertices_m, nullptr, polygon_area_m2(old.vertices_m)});
+          units.push_back({old.surface, old.plane, met_cell.polygon(), nullptr, polygon_area_m2(met_cell.polygon())});
           if (!labels.contains(old.surface)) {
             wake(surfaces_.at(old.surface));  // its label state needs the moments
             labels.emplace(old.surface, state_of_surface(surface));
@@ -472,8 +480,8 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
       const double base_deg = config_.redundant_normal_angle_deg;
       const double angle_deg =
           std::min(2.0 * base_deg, base_deg + std::atan(noise / std::sqrt(fresh_area[k])) * 180.0 / M_PI);
-      if (nearly_coplanar(cell, old, angle_deg, tol) &&
-          (neighbour || polygons_within_m(cell.plane, cell.vertices_m, box, old.plane, old.vertices_m, old_box, tol)))
+      if (nearly_coplanar(cell.plane, old.plane, met_cell.polygon(), angle_deg, tol) &&
+          (neighbour || polygons_within_m(cell.plane, cell.vertices_m, box, old.plane, met_cell.polygon(), old_box, tol)))
         (less_precise ? superseded[k] : covering[k]).push_back(&old);
       // The surface of a nearby cell covers the cell where its footprint (every observation
       // fused into it, stored or not) holds the cell's points, when its plane passes within the
@@ -580,9 +588,8 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
       entry.first = old;
       entry.second.push_back(fresh[k]);
     }
-    MapCell stored = map_cell_of(cell, next_cell_id_++, frame_id, root);
-    stored.plane = to_float_precision(stored.plane);  // storage precision (geometry.hpp)
-    snap_to_mm(stored.vertices_m);
+    MapCell stored = map_cell_of(cell, next_cell_id_++, frame_id, root);  // plane: float precision
+    stored.vertices_m = on_mm_grid(cell.vertices_m);
     index_.insert(stored.id, bounds_of(stored.vertices_m));
     surface.cells.push_back(stored.id);
     report.added_cells.push_back(stored.id);
@@ -711,7 +718,8 @@ void GlobalMap::bridge_surfaces(std::span<const Planecell* const> fresh, std::sp
       wake(other);
       LabelState a = state_of_surface(self), b = state_of_surface(other);
       const MergeUnit ua{id, cell.plane, cell.vertices_m, nullptr, polygon_area_m2(cell.vertices_m)};
-      const MergeUnit ub{other_id, old.plane, old.vertices_m, nullptr, polygon_area_m2(old.vertices_m)};
+      const std::vector<Eigen::Vector3f> old_vertices = old.vertices_m.vertices();
+      const MergeUnit ub{other_id, old.plane, old_vertices, nullptr, polygon_area_m2(old_vertices)};
       if (!merger_.evaluate(ua, a, ub, b, 0.0).in_range) continue;
       if (!hidden_behind(0.5 * (vertex_centroid(cell.vertices_m) + vertex_centroid(old.vertices_m)), id, other_id))
         continue;
@@ -789,7 +797,7 @@ MapBytes GlobalMap::map_bytes_by_part() const {
   bytes.surfaces = hash_map_bytes(surfaces_);
   bytes.index = index_.bytes();
   bytes.cells += consolidation_queue_.size() * sizeof(consolidation_queue_.front());
-  for (const auto& [id, cell] : cells_) bytes.vertices += cell.vertices_m.capacity() * sizeof(Eigen::Vector3f);
+  for (const auto& [id, cell] : cells_) bytes.vertices += cell.vertices_m.bytes();
   bytes.surfaces += dormancy_clock_.size() * sizeof(std::pair<std::uint64_t, std::uint32_t>) +
                     tree_bytes(single_observation_since_);
   for (const auto& [id, surface] : surfaces_) {
@@ -877,8 +885,10 @@ void GlobalMap::consolidate(std::uint64_t frame_id, std::set<std::uint32_t>& tou
           group.push_back(&cell);
       }
       if (!complete || group.size() < 2) continue;
+      std::vector<std::vector<Eigen::Vector3f>> decoded(group.size());
       std::vector<std::span<const Eigen::Vector3f>> polygons;
-      for (const MapCell* cell : group) polygons.emplace_back(cell->vertices_m);
+      for (std::size_t k = 0; k < group.size(); ++k)
+        polygons.push_back(as_span(group[k]->vertices_m, decoded[k]));
       const std::vector<CellUnion> unions =
           unite_cells(polygons, surface.detail->basis, surface.plane, settings);
       // A union the map cannot hold (cell_problem) is dropped, and its members stay.
@@ -897,8 +907,7 @@ void GlobalMap::consolidate(std::uint64_t frame_id, std::set<std::uint32_t>& tou
         MapCell piece;
         piece.surface = surface_id;
         piece.plane = surface.plane;
-        piece.vertices_m = united.vertices_m;
-        snap_to_mm(piece.vertices_m);
+        piece.vertices_m = on_mm_grid(united.vertices_m);
         // Colour and depth noise: the members' area-weighted means; age: the newest member's frame.
         double weight = 0.0, sigma = 0.0;
         Eigen::Vector3d rgb = Eigen::Vector3d::Zero();
@@ -948,7 +957,7 @@ GlobalMap GlobalMap::restore(const MapConfig& config, std::vector<MapCell> cells
     map.surfaces_.emplace(id, std::move(surface));
   }
   for (auto& cell : cells) {
-    if (const std::string problem = cell_problem(cell.plane, cell.vertices_m, map.index_.max_coordinate_m());
+    if (const std::string problem = cell_problem(cell.plane, cell.vertices_m.vertices(), map.index_.max_coordinate_m());
         !problem.empty())
       throw StorageError("map restore: cell " + std::to_string(cell.id) + " " + problem);
     if (!map.surfaces_.contains(cell.surface))

@@ -11,6 +11,7 @@
 #include "core/plane.hpp"
 #include "core/planecell.hpp"
 #include "mapping/map/geometry.hpp"
+#include "mapping/map/stored_polygon.hpp"
 
 namespace planecell::map {
 
@@ -19,7 +20,7 @@ struct MapCell {
   std::uint32_t surface = kNoSurface;   ///< CRF surface label
   std::uint64_t frame_id = 0;           ///< frame it was extracted from
   StoredPlane plane;                    ///< n·X + e = 0, world frame (storage precision)
-  std::vector<Eigen::Vector3f> vertices_m;  ///< ordered polygon, world frame
+  StoredPolygon vertices_m;  ///< ordered polygon, world frame (mm grid: 6 B a vertex)
   Eigen::Vector3f mean_rgb = Eigen::Vector3f::Zero();  ///< 0..255, R G B order
   /// 1-σ depth uncertainty of the plane at the polygon's centroid (m; Planecell::depth_sigma_m).
   float depth_sigma_m = 0.0f;
@@ -40,7 +41,7 @@ inline MapCell map_cell_of(const Planecell& cell, std::uint32_t id, std::uint64_
   m.surface = surface;
   m.frame_id = frame_id;
   m.plane = cell.plane;
-  m.vertices_m = cell.vertices_m;
+  m.vertices_m = StoredPolygon(cell.vertices_m);
   m.mean_rgb = cell.mean_rgb;
   m.depth_sigma_m = cell.depth_sigma_m;
   return m;

@@ -209,7 +209,9 @@ TEST(FuzzRegression, LcmMapUpdateWithACellAtTenToTheThirtyOneMetres) {
   io::MapUpdate far;
   far.frame_id = 4;
   map::MapCell cell = map::map_cell_of(test::rect_cell(2, {2, 1.5f, 5}, {1, 0, 0}, {0, 0, 1}, 3), 2, 4, 1);
-  cell.vertices_m[1].x() = -1.2e31f;
+  std::vector<Eigen::Vector3f> vertices = cell.vertices_m.vertices();
+  vertices[1].x() = -1.2e31f;
+  cell.vertices_m = map::StoredPolygon(vertices);
   far.added_cells = {cell};
   far.relabelled_cells = {{0, 1}};
   far.next_cell_id = 3;
