@@ -363,7 +363,7 @@ void MapStore::write_changes(const std::string& what, const map::MergeReport& re
         const map::MapCell* c = map.cell(id);
         if (!c) fail(what + ": added cell " + std::to_string(id) + " is not in the map");
         Writer rgb;
-        rgb.put_matrix(c->mean_rgb);
+        rgb.put_matrix(Eigen::Vector3f(c->mean_rgb));
         cell.bind(1, std::int64_t{id})
             .bind(2, static_cast<std::int64_t>(c->frame_id))
             .bind(3, std::int64_t{c->surface})
@@ -477,7 +477,9 @@ StoredMap MapStore::load() const {
       c.vertices_m = map::StoredPolygon(
           map_codec::decode_vertices(cells.blob(4), cells.blob_size(4), what + " vertices_m"));
       Reader rgb(cells.blob(5), cells.blob_size(5), what + " colour");
-      rgb.get_matrix(c.mean_rgb);
+      Eigen::Vector3f mean_rgb;
+      rgb.get_matrix(mean_rgb);
+      c.mean_rgb = mean_rgb;
       rgb.expect_end();
       c.depth_sigma_m = static_cast<float>(cells.real(6));
       out.cells.push_back(std::move(c));

@@ -2,6 +2,7 @@
 /// Geometry of planar polygons in 3D for the global map: plane bases, areas, distances, bounds.
 /// (Boost.Geometry's 2D types stay in mapping/map/polygon2.hpp, out of this widely included header.)
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <Eigen/Core>
@@ -101,6 +102,26 @@ class StoredPlane {
  private:
   Eigen::Vector3f normal_ = Eigen::Vector3f::UnitZ();
   float offset_ = 0.0f;
+};
+
+/// A cell's mean colour kept as three bytes (0..255 R G B), 3 B instead of 12: each channel
+/// rounded to the nearest integer and clamped to 0..255 (NaN → 0), what an 8-bit image and every
+/// export hold. Reads as floats.
+class StoredColour {
+ public:
+  StoredColour() = default;
+  StoredColour(const Eigen::Vector3f& rgb)  // NOLINT(google-explicit-constructor): a colour stored
+      : rgb_{to_byte(rgb.x()), to_byte(rgb.y()), to_byte(rgb.z())} {}
+  operator Eigen::Vector3f() const { return {(*this)[0], (*this)[1], (*this)[2]}; }  // NOLINT
+  /// Channel c (0 R, 1 G, 2 B) as a float.
+  float operator[](int c) const { return static_cast<float>(rgb_[static_cast<std::size_t>(c)]); }
+  bool operator==(const StoredColour&) const = default;
+
+ private:
+  static std::uint8_t to_byte(float x) {
+    return std::isnan(x) ? 0 : static_cast<std::uint8_t>(std::clamp(std::round(x), 0.0f, 255.0f));
+  }
+  std::array<std::uint8_t, 3> rgb_{};
 };
 
 /// An axis-aligned box kept as floats, 24 B instead of Aabb's 48. Built from an Aabb rounded

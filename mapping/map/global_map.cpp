@@ -915,11 +915,11 @@ void GlobalMap::consolidate(std::uint64_t frame_id, std::set<std::uint32_t>& tou
           const MapCell& cell = *group[k];
           const double area = polygon_area_m2(cell.vertices_m);
           weight += area;
-          rgb += area * cell.mean_rgb.cast<double>();
+          rgb += area * Eigen::Vector3f(cell.mean_rgb).cast<double>();
           sigma += area * cell.depth_sigma_m;
           piece.frame_id = std::max(piece.frame_id, cell.frame_id);
         }
-        piece.mean_rgb = (rgb / weight).cast<float>();
+        piece.mean_rgb = Eigen::Vector3f((rgb / weight).cast<float>());
         piece.depth_sigma_m = static_cast<float>(sigma / weight);
         pieces.push_back(std::move(piece));
       }

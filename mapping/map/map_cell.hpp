@@ -21,7 +21,7 @@ struct MapCell {
   std::uint64_t frame_id = 0;           ///< frame it was extracted from
   StoredPlane plane;                    ///< n·X + e = 0, world frame (storage precision)
   StoredPolygon vertices_m;  ///< ordered polygon, world frame (mm grid: 6 B a vertex)
-  Eigen::Vector3f mean_rgb = Eigen::Vector3f::Zero();  ///< 0..255, R G B order
+  StoredColour mean_rgb;  ///< 0..255, R G B order, whole numbers (a byte a channel)
   /// 1-σ depth uncertainty of the plane at the polygon's centroid (m; Planecell::depth_sigma_m).
   float depth_sigma_m = 0.0f;
 

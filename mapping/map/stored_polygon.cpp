@@ -21,41 +21,43 @@ bool grid_mm(float x, std::int64_t& k) {
 }  // namespace
 
 StoredPolygon::StoredPolygon(std::span<const Eigen::Vector3f> vertices) {
-  if (vertices.size() > std::numeric_limits<std::uint32_t>::max())
-    throw std::length_error("stored polygon: more than 2^32 vertices");
-  size_ = static_cast<std::uint32_t>(vertices.size());
+  if (vertices.size() > kSizeMask)
+    throw std::length_error("stored polygon: more than 2^31 - 1 vertices");
   if (vertices.empty()) return;
-  std::vector<std::int64_t> mm(3 * vertices.size());
-  compact_ = true;
-  for (std::size_t i = 0; i < vertices.size() && compact_; ++i)
-    for (int k = 0; k < 3 && compact_; ++k) {
-      compact_ = grid_mm(vertices[i][k], mm[3 * i + k]);
-      if (compact_ && i > 0) {
+  const std::size_t n = vertices.size();
+  std::vector<std::int64_t> mm(3 * n);
+  bool compact = true;
+  for (std::size_t i = 0; i < n && compact; ++i)
+    for (int k = 0; k < 3 && compact; ++k) {
+      compact = grid_mm(vertices[i][k], mm[3 * i + k]);
+      if (compact && i > 0) {
         const std::int64_t offset = mm[3 * i + k] - mm[k];
-        compact_ = offset >= std::numeric_limits<std::int16_t>::min() &&
-                   offset <= std::numeric_limits<std::int16_t>::max();
+        compact = offset >= std::numeric_limits<std::int16_t>::min() &&
+                  offset <= std::numeric_limits<std::int16_t>::max();
       }
     }
-  data_ = std::make_unique<std::byte[]>(heap_bytes(size_, compact_));
-  if (!compact_) {
-    std::memcpy(data_.get(), vertices.data()->data(), heap_bytes(size_, false));
+  data_ = std::make_unique<std::byte[]>(heap_bytes(n, compact));
+  const std::uint32_t header = static_cast<std::uint32_t>(n) | (compact ? kCompactBit : 0u);
+  std::memcpy(data_.get(), &header, sizeof header);
+  std::byte* out = data_.get() + sizeof header;
+  if (!compact) {
+    std::memcpy(out, vertices.data()->data(), 3 * n * sizeof(float));
     return;
   }
-  for (int k = 0; k < 3; ++k) {
+  for (int k = 0; k < 3; ++k, out += sizeof(std::int32_t)) {
     const auto anchor = static_cast<std::int32_t>(mm[k]);
-    std::memcpy(data_.get() + k * sizeof(std::int32_t), &anchor, sizeof anchor);
+    std::memcpy(out, &anchor, sizeof anchor);
   }
-  std::byte* out = data_.get() + 3 * sizeof(std::int32_t);
-  for (std::size_t i = 1; i < vertices.size(); ++i)
+  for (std::size_t i = 1; i < n; ++i)
     for (int k = 0; k < 3; ++k, out += sizeof(std::int16_t)) {
       const auto offset = static_cast<std::int16_t>(mm[3 * i + k] - mm[k]);
       std::memcpy(out, &offset, sizeof offset);
     }
 }
 
-StoredPolygon::StoredPolygon(const StoredPolygon& o) : size_(o.size_), compact_(o.compact_) {
-  const std::size_t n = heap_bytes(size_, compact_);
-  if (n == 0) return;
+StoredPolygon::StoredPolygon(const StoredPolygon& o) {
+  if (o.empty()) return;
+  const std::size_t n = o.bytes();
   data_ = std::make_unique<std::byte[]>(n);
   std::memcpy(data_.get(), o.data_.get(), n);
 }
@@ -65,20 +67,24 @@ StoredPolygon& StoredPolygon::operator=(const StoredPolygon& o) {
   return *this;
 }
 
+std::uint32_t StoredPolygon::header() const {
+  if (!data_) return 0;
+  std::uint32_t header = 0;
+  std::memcpy(&header, data_.get(), sizeof header);
+  return header;
+}
+
 const Eigen::Vector3f StoredPolygon::operator[](std::size_t i) const {
   Eigen::Vector3f v;
-  if (!compact_) {
-    std::memcpy(v.data(), data_.get() + 3 * i * sizeof(float), 3 * sizeof(float));
+  if (!compact()) {
+    std::memcpy(v.data(), payload() + 3 * i * sizeof(float), 3 * sizeof(float));
     return v;
   }
-  const std::byte* offsets = data_.get() + 3 * sizeof(std::int32_t) + 3 * (i - 1) * sizeof(std::int16_t);
-  for (int k = 0; k < 3; ++k) {
-    std::int32_t anchor = 0;
-    std::memcpy(&anchor, data_.get() + k * sizeof(std::int32_t), sizeof anchor);
-    std::int16_t offset = 0;
-    if (i > 0) std::memcpy(&offset, offsets + k * sizeof(std::int16_t), sizeof offset);
-    v[k] = from_mm(std::int64_t{anchor} + offset);
-  }
+  std::int32_t anchor[3];
+  std::memcpy(anchor, payload(), sizeof anchor);
+  std::int16_t d[3] = {0, 0, 0};
+  if (i > 0) std::memcpy(d, payload() + sizeof anchor + 3 * (i - 1) * sizeof(std::int16_t), sizeof d);
+  for (int k = 0; k < 3; ++k) v[k] = from_mm(std::int64_t{anchor[k]} + d[k]);
   return v;
 }
 
@@ -89,16 +95,17 @@ std::vector<Eigen::Vector3f> StoredPolygon::vertices() const {
 }
 
 void StoredPolygon::decode(Eigen::Vector3f* out) const {
-  if (size_ == 0) return;
-  if (!compact_) {
-    std::memcpy(out->data(), data_.get(), heap_bytes(size_, false));
+  const std::size_t n = size();
+  if (n == 0) return;
+  if (!compact()) {
+    std::memcpy(out->data(), payload(), 3 * n * sizeof(float));
     return;
   }
   std::int32_t anchor[3];
-  std::memcpy(anchor, data_.get(), sizeof anchor);
+  std::memcpy(anchor, payload(), sizeof anchor);
   out[0] = {from_mm(anchor[0]), from_mm(anchor[1]), from_mm(anchor[2])};
-  const std::byte* offsets = data_.get() + sizeof anchor;
-  for (std::size_t i = 1; i < size_; ++i, offsets += 3 * sizeof(std::int16_t)) {
+  const std::byte* offsets = payload() + sizeof anchor;
+  for (std::size_t i = 1; i < n; ++i, offsets += 3 * sizeof(std::int16_t)) {
     std::int16_t d[3];
     std::memcpy(d, offsets, sizeof d);
     out[i] = {from_mm(std::int64_t{anchor[0]} + d[0]), from_mm(std::int64_t{anchor[1]} + d[1]),
@@ -108,18 +115,19 @@ void StoredPolygon::decode(Eigen::Vector3f* out) const {
 
 Aabb StoredPolygon::bounds() const {
   Aabb box;
-  if (size_ == 0) return box;
-  if (!compact_) {
-    for (std::size_t i = 0; i < size_; ++i) box.extend((*this)[i].cast<double>().eval());
+  const std::size_t n = size();
+  if (n == 0) return box;
+  if (!compact()) {
+    for (std::size_t i = 0; i < n; ++i) box.extend((*this)[i].cast<double>().eval());
     return box;
   }
   // from_mm is monotonic in k, so the box of the decoded vertices is the decoded box of the
   // millimetres: six conversions instead of three per vertex.
   std::int32_t anchor[3];
-  std::memcpy(anchor, data_.get(), sizeof anchor);
+  std::memcpy(anchor, payload(), sizeof anchor);
   std::int32_t lo[3] = {0, 0, 0}, hi[3] = {0, 0, 0};
-  const std::byte* offsets = data_.get() + sizeof anchor;
-  for (std::size_t i = 1; i < size_; ++i, offsets += 3 * sizeof(std::int16_t)) {
+  const std::byte* offsets = payload() + sizeof anchor;
+  for (std::size_t i = 1; i < n; ++i, offsets += 3 * sizeof(std::int16_t)) {
     std::int16_t d[3];
     std::memcpy(d, offsets, sizeof d);
     for (int k = 0; k < 3; ++k) {
@@ -135,8 +143,8 @@ Aabb StoredPolygon::bounds() const {
 }
 
 bool StoredPolygon::operator==(const StoredPolygon& o) const {
-  if (size_ != o.size_ || compact_ != o.compact_) return false;
-  return size_ == 0 || std::memcmp(data_.get(), o.data_.get(), heap_bytes(size_, compact_)) == 0;
+  const std::size_t n = bytes();
+  return n == o.bytes() && (n == 0 || std::memcmp(data_.get(), o.data_.get(), n) == 0);
 }
 
 }  // namespace planecell::map

@@ -57,41 +57,44 @@ class StoredPolygon {
   StoredPolygon(StoredPolygon&&) noexcept = default;
   StoredPolygon& operator=(StoredPolygon&&) noexcept = default;
 
-  std::size_t size() const { return size_; }
-  bool empty() const { return size_ == 0; }
+  std::size_t size() const { return header() & kSizeMask; }
+  bool empty() const { return !data_; }
   /// Vertex i (i < size()).
   const Eigen::Vector3f operator[](std::size_t i) const;
   const Eigen::Vector3f front() const { return (*this)[0]; }
-  const Eigen::Vector3f back() const { return (*this)[size_ - 1]; }
+  const Eigen::Vector3f back() const { return (*this)[size() - 1]; }
   Iterator begin() const { return {this, 0}; }
-  Iterator end() const { return {this, size_}; }
+  Iterator end() const { return {this, size()}; }
   /// The vertices as floats.
   std::vector<Eigen::Vector3f> vertices() const;
   /// The same into `out` (a contiguous container: std::vector, VertexScratch), its storage reused.
   template <class Container>
   void vertices_into(Container& out) const {
-    out.resize(size_);
+    out.resize(size());
     decode(out.data());
   }
   /// bounds_of(vertices()), without decoding into a vector.
   Aabb bounds() const;
   /// True when kept in millimetres (6 B a vertex after the first).
-  bool compact() const { return compact_; }
+  bool compact() const { return (header() & kCompactBit) != 0; }
   /// Heap bytes (requested size).
-  std::size_t bytes() const { return heap_bytes(size_, compact_); }
+  std::size_t bytes() const { return empty() ? 0 : heap_bytes(size(), compact()); }
   bool operator==(const StoredPolygon& o) const;
 
  private:
+  static constexpr std::uint32_t kCompactBit = 1u << 31;
+  static constexpr std::uint32_t kSizeMask = kCompactBit - 1;
+  /// The heap block: a u32 header (vertex count, kCompactBit when in millimetres), then the
+  /// vertices: an int32 anchor and int16 offsets, or 3 floats a vertex.
   static std::size_t heap_bytes(std::size_t n, bool compact) {
-    if (n == 0) return 0;
-    return compact ? 3 * sizeof(std::int32_t) + 3 * (n - 1) * sizeof(std::int16_t)
-                   : 3 * n * sizeof(float);
+    return sizeof(std::uint32_t) + (compact ? 3 * sizeof(std::int32_t) + 3 * (n - 1) * sizeof(std::int16_t)
+                                            : 3 * n * sizeof(float));
   }
+  std::uint32_t header() const;
+  const std::byte* payload() const { return data_.get() + sizeof(std::uint32_t); }
   /// Writes the size() vertices to out[0 … size() − 1].
   void decode(Eigen::Vector3f* out) const;
-  std::unique_ptr<std::byte[]> data_;  ///< int32 anchor + int16 offsets, or 3 floats a vertex
-  std::uint32_t size_ = 0;
-  bool compact_ = false;
+  std::unique_ptr<std::byte[]> data_;  ///< null for no vertices; the object is one pointer
 };
 
 /// `vertices` snapped to the map's 1 mm grid (snap_to_mm) and stored: the compact form unless a

@@ -95,7 +95,7 @@ void add_export_command(CLI::App& app, CommandContext& context) {
       if (!cells.empty()) cv::applyColorMap(scaled, coloured, cv::COLORMAP_TURBO);
       for (std::size_t i = 0; i < cells.size(); ++i) {
         const auto p = coloured.at<cv::Vec3b>(0, static_cast<int>(i));
-        cells[i].mean_rgb = {static_cast<float>(p[2]), static_cast<float>(p[1]), static_cast<float>(p[0])};
+        cells[i].mean_rgb = Eigen::Vector3f(p[2], p[1], p[0]);
       }
     }
     const std::size_t triangles = io::write_planecells_ply(args->output, cells);

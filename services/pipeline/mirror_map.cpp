@@ -25,7 +25,7 @@ map::GlobalMap mirror_to_map(const io::MapMirror& mirror, const MapConfig& confi
       const double area = map::polygon_area_m2(cell->vertices_m);
       surface.bounds.extend(map::bounds_of(cell->vertices_m));
       surface.observed_area_m2 += area;
-      surface.mean_rgb += static_cast<float>(area) * cell->mean_rgb;
+      surface.mean_rgb += static_cast<float>(area) * Eigen::Vector3f(cell->mean_rgb);
       surface.cells.push_back(cell->id);
       ++surface.observations;
     }

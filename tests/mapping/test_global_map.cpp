@@ -302,14 +302,14 @@ TEST_F(BoxScene, GroundUnderAPointIsTheClosestHorizontalSurfaceBelow) {
 }
 
 /// map_bytes splits into its parts: one 1 m square cell holds its 4 vertices (on the mm grid: the
-/// first as 3 int32, the others as 3 int16 offsets), one
+/// count in a 4-byte header, the first as 3 int32, the others as 3 int16 offsets), one
 /// footprint tile, one surface listing one cell id, and index entries; the parts add up.
 TEST(GlobalMapTest, MapBytesSplitIntoTheirParts) {
   GlobalMap map;
   map.integrate(0, Pose::Identity(), std::vector<Planecell>{rect_cell(0, {0, 1.5f, 5}, kX, kZ, 0)});
   ASSERT_EQ(map.cells().size(), 1u);
   const MapBytes bytes = map.map_bytes_by_part();
-  EXPECT_EQ(bytes.vertices, 3 * sizeof(std::int32_t) + 3 * 3 * sizeof(std::int16_t));
+  EXPECT_EQ(bytes.vertices, sizeof(std::uint32_t) + 3 * sizeof(std::int32_t) + 3 * 3 * sizeof(std::int16_t));
   EXPECT_EQ(bytes.footprints, sizeof(FootprintTile));
   EXPECT_GE(bytes.cells, sizeof(MapCell));
   EXPECT_GE(bytes.surfaces, sizeof(Surface) + sizeof(std::uint32_t));

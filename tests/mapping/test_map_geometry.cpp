@@ -2,6 +2,7 @@
 /// squares, and polygons_within_m deciding exactly polygon_gap_m ≤ max on random pairs.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <random>
 
 #include "mapping/map/geometry.hpp"
@@ -104,6 +105,17 @@ TEST(MapGeometry, StoredBoxKeepsAFloatBoxExactlyAndRoundsOthersOutwards) {
   grown.extend(Aabb{Eigen::Vector3d(-4.0, 0.5, 2.0), Eigen::Vector3d(0.0, 8.0, 2.5)});
   EXPECT_EQ(grown.min(), Eigen::Vector3d(-4.0, 0.25, 2.0));
   EXPECT_EQ(grown.max(), Eigen::Vector3d(2.0, 8.0, 1e6));
+}
+
+TEST(MapGeometry, StoredColourRoundsEachChannelToAByteAndClamps) {
+  const Eigen::Vector3f back = StoredColour(Eigen::Vector3f(10.49f, 10.5f, 254.6f));
+  EXPECT_EQ(back, Eigen::Vector3f(10.0f, 11.0f, 255.0f));
+  EXPECT_EQ(Eigen::Vector3f(StoredColour(Eigen::Vector3f(-3.0f, 300.0f, std::nanf("")))),
+            Eigen::Vector3f(0.0f, 255.0f, 0.0f));
+  const StoredColour grey(Eigen::Vector3f(128.0f, 128.0f, 128.0f));
+  EXPECT_EQ(grey[1], 128.0f);
+  EXPECT_EQ(grey, StoredColour(Eigen::Vector3f(127.6f, 128.4f, 128.0f)));
+  EXPECT_EQ(StoredColour(), StoredColour(Eigen::Vector3f::Zero()));
 }
 
 }  // namespace

@@ -34,7 +34,7 @@ TEST(StoredPolygonTest, GridVerticesComeBackExactlyFromSixBytesEach) {
                                                        {1234567.891f, -0.5f, -20.249f}});
   const StoredPolygon stored(facade);
   EXPECT_TRUE(stored.compact());
-  EXPECT_EQ(stored.bytes(), 3 * 4u + 3 * 3 * 2u);  // anchor int32 ×3, then int16 ×3 per vertex
+  EXPECT_EQ(stored.bytes(), 4u + 3 * 4u + 3 * 3 * 2u);  // header, anchor int32 ×3, int16 ×3 a vertex
   expect_same_bits(stored, facade);
   EXPECT_EQ(stored[2], facade[2]);
   EXPECT_EQ(stored.front(), facade.front());
@@ -55,7 +55,7 @@ TEST(StoredPolygonTest, OffTheGridOrTooWideKeepsItsFloats) {
     const std::vector<Eigen::Vector3f> polygon{a, b, c, odd};
     const StoredPolygon stored(polygon);
     EXPECT_FALSE(stored.compact());
-    EXPECT_EQ(stored.bytes(), 4 * sizeof(Eigen::Vector3f));
+    EXPECT_EQ(stored.bytes(), 4u + 4 * sizeof(Eigen::Vector3f));
     expect_same_bits(stored, polygon);
   }
   // Offsets from the first vertex fit an int16 up to ±32.767 m.
