@@ -19,10 +19,10 @@ planecell::io::MapMirror base_mirror() {
     map::MapCell c;
     c.id = id;
     c.surface = id;
-    c.plane.normal = Eigen::Vector3d(0, -1, 0);
-    c.plane.offset = 1.5;
+    c.plane = Plane3{Eigen::Vector3d(0, -1, 0), 1.5};
     const float x0 = static_cast<float>(id);
-    c.vertices_m = {{x0, 1.5f, 5}, {x0 + 1, 1.5f, 5}, {x0 + 1, 1.5f, 6}, {x0, 1.5f, 6}};
+    c.vertices_m = map::StoredPolygon(std::vector<Eigen::Vector3f>{
+        {x0, 1.5f, 5}, {x0 + 1, 1.5f, 5}, {x0 + 1, 1.5f, 6}, {x0, 1.5f, 6}});
     mirror.cells.emplace(id, c);
   }
   mirror.next_cell_id = 2;
