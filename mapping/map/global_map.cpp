@@ -270,8 +270,7 @@ GlobalMap::GlobalMap(const MapConfig& config)
 
 bool same_surface(const Surface& a, const Surface& b) {
   return a.id == b.id && a.observations == b.observations &&
-         a.last_observed_frame == b.last_observed_frame && a.plane.normal() == b.plane.normal() &&
-         a.plane.offset() == b.plane.offset() && a.information == b.information &&
+         a.last_observed_frame == b.last_observed_frame && a.plane == b.plane && a.information == b.information &&
          a.histogram == b.histogram && a.histogram_weight_m2 == b.histogram_weight_m2 &&
          a.mean_rgb == b.mean_rgb && a.observed_area_m2 == b.observed_area_m2 &&
          a.area_m2 == b.area_m2 && a.bounds == b.bounds && a.cells == b.cells &&
@@ -302,8 +301,8 @@ void GlobalMap::absorb_surface(std::uint32_t into_id, std::uint32_t absorbed_id,
   if (w > 0.0)
     into.mean_rgb = ((into.mean_rgb * into.observed_area_m2 + absorbed.mean_rgb * absorbed.observed_area_m2) / w)
                         .cast<float>();
-  into.observed_area_m2 = to_float_precision(w);
-  into.area_m2 = to_float_precision(to.footprint.area_m2());
+  into.observed_area_m2 = static_cast<float>(w);
+  into.area_m2 = static_cast<float>(to.footprint.area_m2());
   into.bounds.extend(absorbed.bounds);
   into.observations += absorbed.observations;
   into.last_observed_frame = std::max({into.last_observed_frame, absorbed.last_observed_frame, report.frame_id});
@@ -447,8 +446,8 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
         met->second = {&c, &surfaces_.at(c.surface), bounds_of(c.vertices_m), {}};
       }
       MetCell& met_cell = met->second;
-      const MapCell& old = *met->second.cell;
-      const Aabb& old_box = met->second.box;
+      const MapCell& old = *met_cell.cell;
+      const Aabb& old_box = met_cell.box;
       if (!old_box.overlaps(reach_box)) continue;
       const Surface& surface = *met->second.surface;
       if (max_age > 0 && old.frame_id + max_age <= frame_id && surface.observations == 1)
@@ -566,9 +565,9 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
     const double added = detail.footprint.add_polygon(project_to_basis(cell.vertices_m, detail.basis));
     const double w = surface.observed_area_m2 + area;
     surface.mean_rgb = ((surface.mean_rgb * surface.observed_area_m2 + cell.mean_rgb * area) / w).cast<float>();
-    surface.observed_area_m2 = to_float_precision(w);
+    surface.observed_area_m2 = static_cast<float>(w);
     // Incremental: per-frame work stays local to the new cells.
-    surface.area_m2 = to_float_precision(surface.area_m2 + added);
+    surface.area_m2 = static_cast<float>(surface.area_m2 + added);
     surface.bounds.extend(bounds_of(cell.vertices_m));
     ++surface.observations;
     // A re-observation lying on much less precise stored cells is stored (and replaces them
@@ -588,8 +587,7 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
       entry.first = old;
       entry.second.push_back(fresh[k]);
     }
-    MapCell stored = map_cell_of(cell, next_cell_id_++, frame_id, root);  // plane: float precision
-    stored.vertices_m = on_mm_grid(cell.vertices_m);
+    MapCell stored = map_cell_of(cell, next_cell_id_++, frame_id, root);  // storage precision
     index_.insert(stored.id, bounds_of(stored.vertices_m));
     surface.cells.push_back(stored.id);
     report.added_cells.push_back(stored.id);
@@ -642,10 +640,10 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
     const auto state_it = labels.find(id);
     if (state_it == labels.end()) continue;
     const LabelState& state = state_it->second;
-    surface.plane = to_float_precision(state.plane);
+    surface.plane = state.plane;  // StoredPlane: storage precision
     set_moments(surface, state.moments);
     surface.histogram = compact(state.histogram);
-    surface.histogram_weight_m2 = to_float_precision(state.histogram_weight_m2);
+    surface.histogram_weight_m2 = static_cast<float>(state.histogram_weight_m2);
   }
   if (config_.bridge_gap_m > 0.0) bridge_surfaces(fresh, fresh_input, camera_centre, touched, report);
   age_and_finish(frame_id, frame_id, touched, report);
@@ -705,11 +703,12 @@ void GlobalMap::bridge_surfaces(std::span<const Planecell* const> fresh, std::sp
         checked.insert(other_id);
         continue;
       }
-      const Aabb old_box = bounds_of(old.vertices_m);
+      const std::vector<Eigen::Vector3f> old_vertices = old.vertices_m.vertices();
+      const Aabb old_box = bounds_of(old_vertices);
       std::size_t w = 0;
       while (w < ks.size() && !(reach[w].overlaps(old_box) &&
                                 polygons_within_m(fresh[ks[w]]->plane, fresh[ks[w]]->vertices_m, boxes[w],
-                                                  old.plane, old.vertices_m, old_box, bridge)))
+                                                  old.plane, old_vertices, old_box, bridge)))
         ++w;
       if (w == ks.size()) continue;  // this stored cell is out of reach; another of its surface may not be
       checked.insert(other_id);
@@ -718,10 +717,9 @@ void GlobalMap::bridge_surfaces(std::span<const Planecell* const> fresh, std::sp
       wake(other);
       LabelState a = state_of_surface(self), b = state_of_surface(other);
       const MergeUnit ua{id, cell.plane, cell.vertices_m, nullptr, polygon_area_m2(cell.vertices_m)};
-      const std::vector<Eigen::Vector3f> old_vertices = old.vertices_m.vertices();
       const MergeUnit ub{other_id, old.plane, old_vertices, nullptr, polygon_area_m2(old_vertices)};
       if (!merger_.evaluate(ua, a, ub, b, 0.0).in_range) continue;
-      if (!hidden_behind(0.5 * (vertex_centroid(cell.vertices_m) + vertex_centroid(old.vertices_m)), id, other_id))
+      if (!hidden_behind(0.5 * (vertex_centroid(cell.vertices_m) + vertex_centroid(old_vertices)), id, other_id))
         continue;
       id = merge_surfaces(id, std::move(a), other_id, std::move(b), touched, report);
     }
@@ -736,10 +734,10 @@ std::uint32_t GlobalMap::merge_surfaces(std::uint32_t a_id, LabelState a, std::u
   fold_label(state, into_id == a_id ? b : a);
   absorb_surface(into_id, gone_id, touched, report);
   Surface& into = surfaces_.at(into_id);
-  into.plane = to_float_precision(state.plane);
+  into.plane = state.plane;  // StoredPlane: storage precision
   set_moments(into, state.moments);
   into.histogram = compact(state.histogram);
-  into.histogram_weight_m2 = to_float_precision(state.histogram_weight_m2);
+  into.histogram_weight_m2 = static_cast<float>(state.histogram_weight_m2);
   return into_id;
 }
 
@@ -913,7 +911,7 @@ void GlobalMap::consolidate(std::uint64_t frame_id, std::set<std::uint32_t>& tou
         Eigen::Vector3d rgb = Eigen::Vector3d::Zero();
         for (std::size_t k : united.members) {
           const MapCell& cell = *group[k];
-          const double area = polygon_area_m2(cell.vertices_m);
+          const double area = polygon_area_m2(polygons[k]);  // decoded above
           weight += area;
           rgb += area * Eigen::Vector3f(cell.mean_rgb).cast<double>();
           sigma += area * cell.depth_sigma_m;
@@ -1032,17 +1030,20 @@ bool GlobalMap::redundant_fragment(const Surface& surface) const {
     return false;
   const MapCell& cell = cells_.at(surface.cells.front());
   const double tolerance = config_.fragment_redundant_m;
-  const std::vector<std::uint32_t> near = query_cells(bounds_of(cell.vertices_m).inflated(tolerance));
+  const std::vector<Eigen::Vector3f> vertices = cell.vertices_m.vertices();
+  // The other surfaces' cells nearby, decoded once for every point tested against them.
+  std::vector<std::pair<Plane3, std::vector<Eigen::Vector3f>>> others;
+  for (std::uint32_t id : query_cells(bounds_of(vertices).inflated(tolerance))) {
+    const MapCell& other = cells_.at(id);
+    if (other.surface != surface.id) others.emplace_back(other.plane, other.vertices_m.vertices());
+  }
   auto covered = [&](const Eigen::Vector3d& point) {
-    for (std::uint32_t id : near) {
-      const MapCell& other = cells_.at(id);
-      if (other.surface != surface.id && distance_to_polygon(point, other.plane, other.vertices_m) <= tolerance)
-        return true;
-    }
-    return false;
+    return std::any_of(others.begin(), others.end(), [&](const auto& other) {
+      return distance_to_polygon(point, other.first, other.second) <= tolerance;
+    });
   };
-  if (!covered(vertex_centroid(cell.vertices_m))) return false;
-  return std::all_of(cell.vertices_m.begin(), cell.vertices_m.end(),
+  if (!covered(vertex_centroid(vertices))) return false;
+  return std::all_of(vertices.begin(), vertices.end(),
                      [&](const Eigen::Vector3f& v) { return covered(v.cast<double>()); });
 }
 

@@ -33,7 +33,8 @@ struct MapCell {
 };
 
 /// The map's record of world-frame planecell `cell` under map id `id`, from frame `frame_id`,
-/// on surface `surface`.
+/// on surface `surface`, at storage precision: plane as floats, vertices on the 1 mm grid
+/// (on_mm_grid), colour as bytes.
 inline MapCell map_cell_of(const Planecell& cell, std::uint32_t id, std::uint64_t frame_id,
                            std::uint32_t surface) {
   MapCell m;
@@ -41,7 +42,7 @@ inline MapCell map_cell_of(const Planecell& cell, std::uint32_t id, std::uint64_
   m.surface = surface;
   m.frame_id = frame_id;
   m.plane = cell.plane;
-  m.vertices_m = StoredPolygon(cell.vertices_m);
+  m.vertices_m = on_mm_grid(cell.vertices_m);
   m.mean_rgb = cell.mean_rgb;
   m.depth_sigma_m = cell.depth_sigma_m;
   return m;

@@ -83,14 +83,15 @@ HeightMap GlobalMap::height_map(const Eigen::Vector2d& origin_ab, int cols, int 
 
   // Region box in 3D: the grid rectangle swept over the map's height range.
   double h_min = std::numeric_limits<double>::infinity(), h_max = -h_min;
-  for (const auto& [id, s] : surfaces_)
+  for (const auto& [id, s] : surfaces_) {
+    const Aabb box = s.bounds;
     for (int corner = 0; corner < 8; ++corner) {
-      const Eigen::Vector3d c((corner & 1) ? s.bounds.max().x() : s.bounds.min().x(),
-                              (corner & 2) ? s.bounds.max().y() : s.bounds.min().y(),
-                              (corner & 4) ? s.bounds.max().z() : s.bounds.min().z());
+      const Eigen::Vector3d c((corner & 1) ? box.max.x() : box.min.x(), (corner & 2) ? box.max.y() : box.min.y(),
+                              (corner & 4) ? box.max.z() : box.min.z());
       h_min = std::min(h_min, c.dot(up_));
       h_max = std::max(h_max, c.dot(up_));
     }
+  }
   Aabb region;
   for (int corner = 0; corner < 8; ++corner) {
     const double a = origin_ab.x() + ((corner & 1) ? cols * resolution_m : 0.0);

@@ -25,7 +25,7 @@ StoredPolygon::StoredPolygon(std::span<const Eigen::Vector3f> vertices) {
     throw std::length_error("stored polygon: more than 2^31 - 1 vertices");
   if (vertices.empty()) return;
   const std::size_t n = vertices.size();
-  std::vector<std::int64_t> mm(3 * n);
+  boost::container::small_vector<std::int64_t, 48> mm(3 * n);  // millimetres, 16 vertices on the stack
   bool compact = true;
   for (std::size_t i = 0; i < n && compact; ++i)
     for (int k = 0; k < 3 && compact; ++k) {

@@ -150,11 +150,5 @@ bool polygons_within_m(const Plane3& plane_a, const A& a, const Aabb& box_a, con
   return polygons_within_m(plane_a, as_span(a, scratch_a), box_a, plane_b, as_span(b, scratch_b),
                            box_b, max_m);
 }
-template <class A, class B>
-  requires(std::same_as<A, StoredPolygon> || std::same_as<B, StoredPolygon>)
-double polygon_gap_m(const Plane3& plane_a, const A& a, const Plane3& plane_b, const B& b) {
-  VertexScratch scratch_a, scratch_b;
-  return polygon_gap_m(plane_a, as_span(a, scratch_a), plane_b, as_span(b, scratch_b));
-}
 
 }  // namespace planecell::map
