@@ -247,6 +247,12 @@ GlobalMap::GlobalMap(const MapConfig& config)
                       ") must be > 0 and map.fragment_join_angle_deg (" +
                       std::to_string(config.fragment_join_angle_deg) +
                       ") in (0, 90] when fragment_join_max_area_m2 > 0");
+  if (!(config.fragment_join_sigma_factor >= 0.0) || !std::isfinite(config.fragment_join_sigma_factor))
+    throw ConfigError("map.fragment_join_sigma_factor: must be >= 0 (0 = off), got " +
+                      std::to_string(config.fragment_join_sigma_factor));
+  if (!(config.fragment_join_noise_colour >= 0.0 && config.fragment_join_noise_colour <= 1.0))
+    throw ConfigError("map.fragment_join_noise_colour: must be in [0, 1] (a histogram intersection), got " +
+                      std::to_string(config.fragment_join_noise_colour));
   if (config.consolidate_after_frames > 0) {
     auto positive = [](const char* key, double value) {
       if (!(value > 0.0) || !std::isfinite(value))
@@ -751,6 +757,11 @@ bool GlobalMap::join_neighbour(Surface& surface, std::set<std::uint32_t>& touche
   std::vector<std::uint32_t> nearby;
   std::set<std::uint32_t> checked;
   const LabelState self = state_of_surface(surface);
+  // Within its own depth noise, colours alike: the tolerance σ̄_Z·k (fragment_join_sigma_factor).
+  double sigma_m = 0.0;
+  for (std::uint32_t cell_id : surface.cells) sigma_m += cells_.at(cell_id).depth_sigma_m;
+  const double noise_distance_m =
+      config_.fragment_join_sigma_factor * sigma_m / static_cast<double>(std::max<std::size_t>(1, surface.cells.size()));
   for (std::uint32_t cell_id : surface.cells) {
     const MapCell& cell = cells_.at(cell_id);
     const Aabb box = bounds_of(cell.vertices_m);
@@ -770,12 +781,16 @@ bool GlobalMap::join_neighbour(Surface& surface, std::set<std::uint32_t>& touche
         continue;
       checked.insert(old.surface);
       // Its points on the neighbour's plane, its normal (a small patch's is loosely determined)
-      // near the neighbour's, and the CRF's colour gate.
+      // near the neighbour's, and the CRF's colour gate; or its points within its own depth noise
+      // of the plane and colours alike.
       const double angle_deg =
           std::acos(std::min(1.0, std::abs(surface.plane.normal().dot(other.plane.normal())))) * 180.0 / M_PI;
-      if (angle_deg > config_.fragment_join_angle_deg ||
-          self.moments.rms_distance_m(other.plane) > config_.fragment_join_distance_m ||
-          colour_similarity(self.histogram, expand(other.histogram)) < config_.min_colour_similarity)
+      if (angle_deg > config_.fragment_join_angle_deg) continue;
+      const double rms_m = self.moments.rms_distance_m(other.plane);
+      if (rms_m > std::max(config_.fragment_join_distance_m, noise_distance_m)) continue;
+      const double colour = colour_similarity(self.histogram, expand(other.histogram));
+      if (colour < (rms_m <= config_.fragment_join_distance_m ? config_.min_colour_similarity
+                                                              : config_.fragment_join_noise_colour))
         continue;
       best = &other;
     }

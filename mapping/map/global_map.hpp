@@ -321,8 +321,9 @@ class GlobalMap {
                                std::set<std::uint32_t>& touched, MergeReport& report);
   /// MapConfig::fragment_join_max_area_m2: `surface`, going dormant, joins the largest larger
   /// neighbouring surface (a stored cell within neighbour_gap_m) whose plane its moments lie on
-  /// (RMS ≤ fragment_join_distance_m, normals within fragment_join_angle_deg, colour ≥
-  /// min_colour_similarity); true when it did (`surface` may be gone).
+  /// (normals within fragment_join_angle_deg, and RMS ≤ fragment_join_distance_m with colour ≥
+  /// min_colour_similarity, or RMS ≤ fragment_join_sigma_factor · σ̄_Z of its stored cells with
+  /// colour ≥ fragment_join_noise_colour); true when it did (`surface` may be gone).
   bool join_neighbour(Surface& surface, std::set<std::uint32_t>& touched, MergeReport& report);
   /// MapConfig::fragment_max_area_m2: `surface` holds one stored cell of footprint area below
   /// it, whose centroid and vertices all lie within fragment_redundant_m of other surfaces' cells.

@@ -674,7 +674,7 @@ TEST(Dormancy, ASmallFragmentBesideAnotherSurfaceIsPrunedInsteadOfGoingDormant) 
 /// dormant in frame 6, only the first joins the wall.
 TEST(Dormancy, AFragmentGoingDormantJoinsTheLargerNeighbourItLiesOn) {
   MapConfig config = QuietPatch::config();
-  ASSERT_EQ(config.fragment_join_max_area_m2, 5.0);
+  ASSERT_EQ(config.fragment_join_max_area_m2, 20.0);
   ASSERT_EQ(config.fragment_join_distance_m, 0.10);
   ASSERT_EQ(config.fragment_join_angle_deg, 30.0);
   ASSERT_EQ(config.max_normal_angle_deg, 10.0);
@@ -748,6 +748,70 @@ TEST(Dormancy, AFragmentGoingDormantJoinsTheLargerNeighbourItLiesOn) {
   bad.fragment_join_angle_deg = 30.0;
   bad.fragment_join_max_area_m2 = std::nan("");
   EXPECT_CONTAINS(test::error_of<ConfigError>([&] { GlobalMap{bad}; }), "map.fragment_join_max_area_m2");
+}
+
+/// The same 4 m × 2 m wall at z = 10 (colour bin 3) and three 0.5 m squares parallel to it just
+/// above its top edge, 15 cm nearer the camera (z = 9.85), seen in frames 0 and 1: beyond the
+/// CRF's fixed 8 cm range (depth_sigma_factor 0) and fragment_join_distance_m (10 cm). With a
+/// modelled depth noise σ_Z = 0.2 m (the wall's cells too) the first, of the wall's colour, lies
+/// within its own noise and joins the wall going dormant; the second, of another colour, does not;
+/// the third, the wall's colour but σ_Z = 0.05 m, lies 3 σ off and stays apart.
+TEST(Dormancy, AFragmentWithinItsOwnDepthNoiseJoinsANeighbourOfItsColour) {
+  MapConfig config = QuietPatch::config();
+  config.depth_sigma_factor = 0.0;
+  ASSERT_EQ(config.fragment_join_sigma_factor, 1.0);
+  ASSERT_EQ(config.fragment_join_noise_colour, 0.93);
+  ASSERT_EQ(config.fragment_join_distance_m, 0.10);
+  auto square = [](std::uint32_t id, float x, int bin, float sigma_m) {
+    Planecell cell = rect_cell(id, {x, -0.5f, 9.85f}, 0.5f * kX, 0.5f * kY, bin);
+    cell.depth_sigma_m = sigma_m;
+    return cell;
+  };
+  auto frame = [&](std::uint64_t f) {
+    std::vector<Planecell> cells;
+    test::tile(cells, {0.0f, 0.0f, 10.0f}, kX, kY, 4.0f, 2.0f, 1.0f, 0.0f, 3);
+    for (auto& cell : cells) cell.depth_sigma_m = 0.2f;
+    if (f <= 1) {
+      cells.push_back(square(static_cast<std::uint32_t>(cells.size()), 0.2f, 3, 0.2f));
+      cells.push_back(square(static_cast<std::uint32_t>(cells.size()), 1.7f, 12, 0.2f));
+      cells.push_back(square(static_cast<std::uint32_t>(cells.size()), 3.2f, 3, 0.05f));
+    }
+    return cells;
+  };
+  auto run = [&](const MapConfig& c, std::array<std::uint32_t, 3>& fragment, std::uint32_t& wall) {
+    GlobalMap map(c);
+    std::vector<SurfaceMerge> merges;
+    for (std::uint64_t f = 0; f <= 6; ++f) {
+      const auto report = map.integrate(f, Pose::Identity(), frame(f));
+      if (f == 0) {
+        wall = report.cell_surfaces[0];
+        for (std::size_t k = 0; k < 3; ++k) fragment[k] = report.cell_surfaces[8 + k];
+      }
+      merges.insert(merges.end(), report.surface_merges.begin(), report.surface_merges.end());
+    }
+    return std::pair{std::move(map), merges};
+  };
+  std::array<std::uint32_t, 3> fragment{};
+  std::uint32_t wall = kNoSurface;
+  const auto [map, merges] = run(config, fragment, wall);
+  for (std::size_t k = 0; k < 3; ++k) ASSERT_NE(fragment[k], wall) << k;  // apart in the CRF
+  EXPECT_EQ(merges, (std::vector<SurfaceMerge>{{6, fragment[0], wall}}));
+  EXPECT_EQ(map.surface(fragment[0]), nullptr);
+  for (std::size_t k : {1u, 2u}) ASSERT_NE(map.surface(fragment[k]), nullptr) << k;
+  // The wall's plane stays put: the fragment weighs 2 · 0.25 m² against 7 · 8 m².
+  EXPECT_NEAR(std::abs(map.surface(wall)->plane.offset()), 10.0, 0.01);
+  // Off: the fragment keeps to itself.
+  MapConfig off = config;
+  off.fragment_join_sigma_factor = 0.0;
+  const auto [apart, none] = run(off, fragment, wall);
+  EXPECT_TRUE(none.empty());
+  EXPECT_EQ(apart.surfaces().size(), map.surfaces().size() + 1);
+  MapConfig bad = config;
+  bad.fragment_join_noise_colour = 1.5;
+  EXPECT_CONTAINS(test::error_of<ConfigError>([&] { GlobalMap{bad}; }), "map.fragment_join_noise_colour");
+  bad.fragment_join_noise_colour = 0.9;
+  bad.fragment_join_sigma_factor = -1.0;
+  EXPECT_CONTAINS(test::error_of<ConfigError>([&] { GlobalMap{bad}; }), "map.fragment_join_sigma_factor");
 }
 
 /// The wall and a 20° fragment above its top edge (as above) going quiet in the same frame, the
