@@ -216,6 +216,17 @@ GlobalMap::GlobalMap(const MapConfig& config)
     throw ConfigError("map.neighbour_gap_m: must be >= 0, got " + std::to_string(config.neighbour_gap_m));
   if (!(config.bridge_gap_m >= 0.0))
     throw ConfigError("map.bridge_gap_m: must be >= 0 (0 = off), got " + std::to_string(config.bridge_gap_m));
+  if (config.bridge_long_gap_m != 0.0 &&
+      (!(config.bridge_long_gap_m > config.bridge_gap_m) || !std::isfinite(config.bridge_long_gap_m) ||
+       !(config.bridge_long_min_area_m2 >= 0.0) || !std::isfinite(config.bridge_long_min_area_m2) ||
+       !(config.bridge_long_max_angle_deg > 0.0 && config.bridge_long_max_angle_deg <= 90.0) ||
+       !(config.bridge_long_max_step_m > 0.0) || !std::isfinite(config.bridge_long_max_step_m) ||
+       !(config.bridge_long_min_colour >= 0.0 && config.bridge_long_min_colour <= 1.0)))
+    throw ConfigError("map.bridge_long_gap_m (" + std::to_string(config.bridge_long_gap_m) +
+                      ") must be 0 (off) or a finite length > map.bridge_gap_m (" +
+                      std::to_string(config.bridge_gap_m) +
+                      "), with bridge_long_min_area_m2 >= 0, bridge_long_max_angle_deg in (0, 90], "
+                      "bridge_long_max_step_m > 0 and bridge_long_min_colour in [0, 1]");
   if (!(config.bridge_min_area_m2 >= 0.0))
     throw ConfigError("map.bridge_min_area_m2: must be >= 0 (0 = any), got " +
                       std::to_string(config.bridge_min_area_m2));
@@ -651,7 +662,8 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
     surface.histogram = compact(state.histogram);
     surface.histogram_weight_m2 = static_cast<float>(state.histogram_weight_m2);
   }
-  if (config_.bridge_gap_m > 0.0) bridge_surfaces(fresh, fresh_input, camera_centre, touched, report);
+  if (config_.bridge_gap_m > 0.0 || config_.bridge_long_gap_m > 0.0)
+    bridge_surfaces(fresh, fresh_input, camera_centre, touched, report);
   age_and_finish(frame_id, frame_id, touched, report);
   next_surface_id_ += static_cast<std::uint32_t>(fresh.size());
   report.merge_ms =
@@ -692,7 +704,10 @@ void GlobalMap::bridge_surfaces(std::span<const Planecell* const> fresh, std::sp
       reach.push_back(boxes.back().inflated(bridge));
       all.extend(reach.back());
     }
-    index_.candidates(all, nearby);
+    if (bridge > 0.0)
+      index_.candidates(all, nearby);
+    else
+      nearby.clear();
     std::set<std::uint32_t> checked;  // other surfaces tested against this one
     for (std::uint32_t cell_id : nearby) {
       const auto cell_it = cells_.find(cell_id);
@@ -729,7 +744,95 @@ void GlobalMap::bridge_surfaces(std::span<const Planecell* const> fresh, std::sp
         continue;
       id = merge_surfaces(id, std::move(a), other_id, std::move(b), touched, report);
     }
+    if (config_.bridge_long_gap_m > 0.0)
+      id = bridge_long(id, fresh, ks, boxes, camera_centre, checked, touched, report);
   }
+}
+
+std::uint32_t GlobalMap::bridge_long(std::uint32_t id, std::span<const Planecell* const> fresh,
+                                     std::span<const std::size_t> ks, std::span<const Aabb> boxes,
+                                     const Eigen::Vector3d& camera_centre, std::set<std::uint32_t>& checked,
+                                     std::set<std::uint32_t>& touched, MergeReport& report) {
+  const auto mature = static_cast<std::uint32_t>(std::max(config_.mature_cells, 1));
+  const double min_area = config_.bridge_long_min_area_m2;
+  if (const auto it = surfaces_.find(id);
+      it == surfaces_.end() || it->second.observations < mature || it->second.area_m2 < min_area)
+    return id;
+  const double gap = config_.bridge_long_gap_m;
+  const double min_cos = std::cos(config_.bridge_long_max_angle_deg * M_PI / 180.0);
+  std::vector<Aabb> reach;
+  Aabb all;
+  for (const Aabb& box : boxes) {
+    reach.push_back(box.inflated(gap));
+    all.extend(reach.back());
+  }
+  // Is a stored cell of a surface other than id and other_id within 0.2 m of `point`?
+  const auto third_surface_near = [&](const Eigen::Vector3d& point, std::uint32_t other_id) {
+    const auto hit = nearest_cell(point, 0.2);
+    if (!hit) return false;
+    const std::uint32_t s = cells_.at(hit->cell_id).surface;
+    return s != id && s != other_id;
+  };
+  std::vector<std::uint32_t> nearby;
+  index_.candidates(all, nearby);
+  for (std::uint32_t cell_id : nearby) {
+    const auto cell_it = cells_.find(cell_id);
+    if (cell_it == cells_.end()) continue;
+    const MapCell& old = cell_it->second;
+    const std::uint32_t other_id = old.surface;
+    if (other_id == id || checked.contains(other_id)) continue;
+    const auto other_it = surfaces_.find(other_id);
+    if (other_it == surfaces_.end()) continue;
+    Surface& self = surfaces_.at(id);
+    Surface& other = other_it->second;
+    if (other.observations < mature || other.area_m2 < min_area ||
+        std::abs(other.plane.normal().dot(self.plane.normal())) < min_cos) {
+      checked.insert(other_id);
+      continue;
+    }
+    const std::vector<Eigen::Vector3f> old_vertices = old.vertices_m.vertices();
+    const Aabb old_box = bounds_of(old_vertices);
+    std::size_t w = 0;
+    while (w < ks.size() && !(reach[w].overlaps(old_box) &&
+                              polygons_within_m(fresh[ks[w]]->plane, fresh[ks[w]]->vertices_m, boxes[w],
+                                                old.plane, old_vertices, old_box, gap)))
+      ++w;
+    if (w == ks.size()) continue;  // this stored cell is out of reach; another of its surface may not be
+    checked.insert(other_id);
+    // One plane: the step between the two planes at the cells' midpoint m (m moved onto self's).
+    const Plane3 self_plane = self.plane, other_plane = other.plane;
+    const Eigen::Vector3d a = vertex_centroid(fresh[ks[w]]->vertices_m), b = vertex_centroid(old_vertices);
+    const Eigen::Vector3d m = 0.5 * (a + b);
+    if (std::abs(other_plane.signed_distance(m - self_plane.signed_distance(m) * self_plane.normal)) >
+        config_.bridge_long_max_step_m)
+      continue;
+    // Hidden behind an occluder: a third surface near the camera ray in front of m, none behind.
+    const Eigen::Vector3d to_m = m - camera_centre;
+    const double range = to_m.norm();
+    const Eigen::Vector3d ray = to_m / std::max(range, 1e-9);
+    bool occluded = false;
+    for (double t = 0.5; t <= range - 0.5 && !occluded; t += 0.25)
+      occluded = third_surface_near(camera_centre + t * ray, other_id);
+    if (!occluded) continue;
+    bool seen_through = false;
+    for (double t = 0.3; t <= 10.0 && !seen_through; t += 0.25)
+      seen_through = third_surface_near(m + t * ray, other_id);
+    if (seen_through) continue;
+    // Unmapped: nothing else on the straight path between the two cells, on self's plane.
+    const Eigen::Vector3d pa = a - self_plane.signed_distance(a) * self_plane.normal;
+    const Eigen::Vector3d pb = b - self_plane.signed_distance(b) * self_plane.normal;
+    const double length = (pb - pa).norm();
+    bool filled = false;
+    for (double t = 0.0; t <= length && !filled; t += 0.5)
+      filled = third_surface_near(pa + (pb - pa) * (t / std::max(length, 1e-9)), other_id);
+    if (filled) continue;
+    wake(self);
+    wake(other);
+    LabelState sa = state_of_surface(self), sb = state_of_surface(other);
+    if (colour_similarity(sa.histogram, sb.histogram) < config_.bridge_long_min_colour) continue;
+    id = merge_surfaces(id, std::move(sa), other_id, std::move(sb), touched, report);
+  }
+  return id;
 }
 
 std::uint32_t GlobalMap::merge_surfaces(std::uint32_t a_id, LabelState a, std::uint32_t b_id, LabelState b,

@@ -295,6 +295,14 @@ class GlobalMap {
   void bridge_surfaces(std::span<const Planecell* const> fresh, std::span<const std::size_t> fresh_input,
                        const Eigen::Vector3d& camera_centre, std::set<std::uint32_t>& touched,
                        MergeReport& report);
+  /// MapConfig::bridge_long_gap_m: merges surface `id` (reached by the cells fresh[k], k in `ks`,
+  /// with bounds `boxes`) with large surfaces on its plane across a gap that an occluder hides
+  /// and nothing else fills; `checked` holds the surfaces already tested against it. Returns the
+  /// id it ends under.
+  std::uint32_t bridge_long(std::uint32_t id, std::span<const Planecell* const> fresh,
+                            std::span<const std::size_t> ks, std::span<const Aabb> boxes,
+                            const Eigen::Vector3d& camera_centre, std::set<std::uint32_t>& checked,
+                            std::set<std::uint32_t>& touched, MergeReport& report);
 
   /// The end of integrate() and settle(): consolidation as of `consolidation_frame`, dormancy as
   /// of `dormancy_frame`, then the report's lists as consumers read them (relabelled cells that

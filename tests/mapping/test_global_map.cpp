@@ -964,6 +964,72 @@ TEST(Bridge, NoMergeWhenOffOutOfReachSmallSeenThroughOrNotOnOnePlane) {
   EXPECT_EQ(stepped.surfaces_after, 2u);
 }
 
+/// A long bridge: two 6 m × 4 m floor patches at y = 1.5 (x ∈ [−3, 3]), z ∈ [8, 12] in frame 0
+/// and z ∈ [22, 26] in frame 1, 10 m apart (beyond the 5 m bridge, within the 15 m one). Frame 0
+/// optionally holds an occluder between the camera and the gap (a 4 m × 0.7 m board at z = 5,
+/// y ∈ [0.2, 0.9], which every camera ray to the gap crosses) and a road strip in the gap, 15 cm
+/// below the floor (y = 1.65, z ∈ [13, 21]); the second patch may be raised or of another colour.
+struct LongBridgeCase {
+  MapConfig config = [] {
+    MapConfig c;
+    c.max_range_m = 100.0;
+    c.max_depth_sigma_m = 0.0;
+    return c;
+  }();
+  bool occluder = true;
+  bool road_in_gap = false;
+  float raise_m = 0.0f;
+  int second_bin = 0;
+  std::vector<MergeReport> reports;
+  std::size_t run() {
+    GlobalMap map(config);
+    std::vector<Planecell> first, second;
+    test::tile(first, {-3, 1.5f, 8}, kX, kZ, 6, 4, 1, 0, 0);
+    if (occluder) test::tile(first, {-2, 0.2f, 5}, kX, kY, 4, 0.7f, 1, 0, 7);
+    if (road_in_gap) test::tile(first, {-3, 1.65f, 13}, kX, kZ, 6, 8, 2, 0, 9);
+    test::tile(second, {-3, 1.5f - raise_m, 22}, kX, kZ, 6, 4, 1, 0, second_bin);
+    reports = {map.integrate(0, Pose::Identity(), first), map.integrate(1, Pose::Identity(), second)};
+    return map.surfaces().size();
+  }
+};
+
+TEST(Bridge, LargeSurfacesOfOnePlaneMergeAcrossALongGapAnOccluderHides) {
+  LongBridgeCase c;
+  ASSERT_EQ(c.config.bridge_long_gap_m, 15.0);  // on by default
+  ASSERT_EQ(c.config.bridge_long_max_step_m, 0.04);
+  EXPECT_EQ(c.run(), 2u);  // the floor and the occluder
+  ASSERT_EQ(c.reports[1].surface_merges.size(), 1u);
+  const SurfaceMerge merge = c.reports[1].surface_merges[0];
+  EXPECT_EQ(merge.into, c.reports[0].cell_surfaces[0]);  // the older patch absorbs the newer
+  EXPECT_EQ(merge.absorbed, c.reports[1].cell_surfaces[0]);
+}
+
+TEST(Bridge, NoLongBridgeWhenOffSeenOpenlyFilledSteppedOrOfAnotherColour) {
+  LongBridgeCase off;
+  off.config.bridge_long_gap_m = 0.0;
+  EXPECT_EQ(off.run(), 3u);
+  LongBridgeCase open;  // nothing in front of the gap: the camera would have seen it
+  open.occluder = false;
+  EXPECT_EQ(open.run(), 2u);
+  LongBridgeCase filled;  // the gap holds a road 15 cm lower: two surfaces beside a road
+  filled.road_in_gap = true;
+  EXPECT_EQ(filled.run(), 4u);
+  LongBridgeCase stepped;  // 10 cm higher: not one plane
+  stepped.raise_m = 0.10f;
+  EXPECT_EQ(stepped.run(), 3u);
+  LongBridgeCase other_colour;
+  other_colour.second_bin = 12;
+  EXPECT_EQ(other_colour.run(), 3u);
+  for (const auto* c : {&off, &open, &filled, &stepped, &other_colour})
+    EXPECT_TRUE(c->reports[1].surface_merges.empty());
+  MapConfig bad;
+  bad.bridge_long_gap_m = 3.0;  // not beyond bridge_gap_m (5)
+  EXPECT_CONTAINS(test::error_of<ConfigError>([&] { GlobalMap{bad}; }), "map.bridge_long_gap_m (3");
+  bad.bridge_long_gap_m = 15.0;
+  bad.bridge_long_min_colour = 2.0;
+  EXPECT_THROW(GlobalMap{bad}, ConfigError);
+}
+
 TEST(Bridge, NegativeGapOrAreaIsAConfigError) {
   MapConfig config;
   config.bridge_gap_m = -1.0;
