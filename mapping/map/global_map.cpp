@@ -671,11 +671,66 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
   return report;
 }
 
+template <class Reject, class Visit>
+std::uint32_t GlobalMap::visit_reached_surfaces(std::uint32_t id, std::span<const Planecell* const> fresh,
+                                                std::span<const std::size_t> ks, std::span<const Aabb> boxes,
+                                                double gap_m, std::set<std::uint32_t>& checked, Reject&& reject,
+                                                Visit&& visit) {
+  std::vector<Aabb> reach;  // each reaching cell's bounds inflated by the gap
+  Aabb all;
+  for (const Aabb& box : boxes) {
+    reach.push_back(box.inflated(gap_m));
+    all.extend(reach.back());
+  }
+  std::vector<std::uint32_t> nearby;
+  index_.candidates(all, nearby);
+  for (std::uint32_t cell_id : nearby) {
+    const auto cell_it = cells_.find(cell_id);
+    if (cell_it == cells_.end()) continue;
+    const MapCell& old = cell_it->second;
+    const std::uint32_t other_id = old.surface;
+    if (other_id == id || checked.contains(other_id)) continue;
+    const auto other_it = surfaces_.find(other_id);
+    if (other_it == surfaces_.end()) continue;
+    if (reject(surfaces_.at(id), other_it->second)) {
+      checked.insert(other_id);
+      continue;
+    }
+    // The stored box (no decoding) rules out most candidates; the polygons decide the rest.
+    const Aabb old_box = old.vertices_m.bounds();
+    if (std::none_of(reach.begin(), reach.end(), [&](const Aabb& r) { return r.overlaps(old_box); })) continue;
+    const std::vector<Eigen::Vector3f> old_vertices = old.vertices_m.vertices();
+    std::size_t w = 0;
+    while (w < ks.size() && !(reach[w].overlaps(old_box) &&
+                              polygons_within_m(fresh[ks[w]]->plane, fresh[ks[w]]->vertices_m, boxes[w],
+                                                old.plane, old_vertices, old_box, gap_m)))
+      ++w;
+    if (w == ks.size()) continue;  // this stored cell is out of reach; another of its surface may not be
+    checked.insert(other_id);
+    id = visit(id, old, old_vertices, *fresh[ks[w]]);
+  }
+  return id;
+}
+
+bool GlobalMap::third_surface_near(const Eigen::Vector3d& point, std::uint32_t a, std::uint32_t b) const {
+  const auto hit = nearest_cell(point, 0.2);
+  if (!hit) return false;
+  const std::uint32_t s = cells_.at(hit->cell_id).surface;
+  return s != a && s != b;
+}
+
+bool GlobalMap::seen_through(const Eigen::Vector3d& m, const Eigen::Vector3d& camera_centre, std::uint32_t a,
+                             std::uint32_t b) const {
+  const Eigen::Vector3d ray = (m - camera_centre).normalized();
+  for (double t = 0.3; t <= 10.0; t += 0.25)
+    if (third_surface_near(m + t * ray, a, b)) return true;
+  return false;
+}
+
 void GlobalMap::bridge_surfaces(std::span<const Planecell* const> fresh, std::span<const std::size_t> fresh_input,
                                 const Eigen::Vector3d& camera_centre, std::set<std::uint32_t>& touched,
                                 MergeReport& report) {
   const auto mature = static_cast<std::uint32_t>(std::max(config_.mature_cells, 1));
-  const double bridge = config_.bridge_gap_m;
   const double min_cos = std::cos(config_.max_normal_angle_deg * M_PI / 180.0);
   // This frame's cells (stored or fused) by the surface they went to.
   std::map<std::uint32_t, std::vector<std::size_t>> reached;
@@ -683,67 +738,36 @@ void GlobalMap::bridge_surfaces(std::span<const Planecell* const> fresh, std::sp
     const std::uint32_t s = report.cell_surfaces[fresh_input[k]];
     if (surfaces_.contains(s)) reached[s].push_back(k);
   }
-  // Hidden, not seen through: no stored cell of a third surface near the ray behind m.
-  const auto hidden_behind = [&](const Eigen::Vector3d& m, std::uint32_t a, std::uint32_t b) {
-    const Eigen::Vector3d ray = (m - camera_centre).normalized();
-    for (double t = 0.3; t <= 10.0; t += 0.25)
-      if (const auto hit = nearest_cell(m + t * ray, 0.2)) {
-        const std::uint32_t s = cells_.at(hit->cell_id).surface;
-        if (s != a && s != b) return false;
-      }
-    return true;
+  // Mature surfaces that pass the CRF's test for mature labels, when one covers enough area.
+  const auto reject = [&](const Surface& self, const Surface& other) {
+    return other.observations < mature || std::abs(other.plane.normal().dot(self.plane.normal())) < min_cos ||
+           std::max(self.area_m2, other.area_m2) < config_.bridge_min_area_m2;
   };
-  std::vector<std::uint32_t> nearby;
   for (const auto& [reached_id, ks] : reached) {
     std::uint32_t id = reached_id;  // follows the surface when a merge absorbs it
     if (const auto it = surfaces_.find(id); it == surfaces_.end() || it->second.observations < mature) continue;
-    std::vector<Aabb> boxes, reach;  // each reaching cell's bounds, and those inflated by the gap
-    Aabb all;
-    for (std::size_t k : ks) {
-      boxes.push_back(bounds_of(fresh[k]->vertices_m));
-      reach.push_back(boxes.back().inflated(bridge));
-      all.extend(reach.back());
-    }
-    if (bridge > 0.0)
-      index_.candidates(all, nearby);
-    else
-      nearby.clear();
+    std::vector<Aabb> boxes;  // each reaching cell's bounds
+    for (std::size_t k : ks) boxes.push_back(bounds_of(fresh[k]->vertices_m));
     std::set<std::uint32_t> checked;  // other surfaces tested against this one
-    for (std::uint32_t cell_id : nearby) {
-      const auto cell_it = cells_.find(cell_id);
-      if (cell_it == cells_.end()) continue;
-      const MapCell& old = cell_it->second;
-      const std::uint32_t other_id = old.surface;
-      if (other_id == id || checked.contains(other_id)) continue;
-      const auto other_it = surfaces_.find(other_id);
-      if (other_it == surfaces_.end()) continue;
-      Surface& self = surfaces_.at(id);
-      Surface& other = other_it->second;
-      if (other.observations < mature || std::abs(other.plane.normal().dot(self.plane.normal())) < min_cos ||
-          std::max(self.area_m2, other.area_m2) < config_.bridge_min_area_m2) {
-        checked.insert(other_id);
-        continue;
-      }
-      const std::vector<Eigen::Vector3f> old_vertices = old.vertices_m.vertices();
-      const Aabb old_box = bounds_of(old_vertices);
-      std::size_t w = 0;
-      while (w < ks.size() && !(reach[w].overlaps(old_box) &&
-                                polygons_within_m(fresh[ks[w]]->plane, fresh[ks[w]]->vertices_m, boxes[w],
-                                                  old.plane, old_vertices, old_box, bridge)))
-        ++w;
-      if (w == ks.size()) continue;  // this stored cell is out of reach; another of its surface may not be
-      checked.insert(other_id);
-      const Planecell& cell = *fresh[ks[w]];
-      wake(self);
-      wake(other);
-      LabelState a = state_of_surface(self), b = state_of_surface(other);
-      const MergeUnit ua{id, cell.plane, cell.vertices_m, nullptr, polygon_area_m2(cell.vertices_m)};
-      const MergeUnit ub{other_id, old.plane, old_vertices, nullptr, polygon_area_m2(old_vertices)};
-      if (!merger_.evaluate(ua, a, ub, b, 0.0).in_range) continue;
-      if (!hidden_behind(0.5 * (vertex_centroid(cell.vertices_m) + vertex_centroid(old_vertices)), id, other_id))
-        continue;
-      id = merge_surfaces(id, std::move(a), other_id, std::move(b), touched, report);
-    }
+    if (config_.bridge_gap_m > 0.0)
+      id = visit_reached_surfaces(
+          id, fresh, ks, boxes, config_.bridge_gap_m, checked, reject,
+          [&](std::uint32_t self_id, const MapCell& old, const std::vector<Eigen::Vector3f>& old_vertices,
+              const Planecell& cell) {
+            const std::uint32_t other_id = old.surface;
+            Surface& self = surfaces_.at(self_id);
+            Surface& other = surfaces_.at(other_id);
+            wake(self);
+            wake(other);
+            LabelState a = state_of_surface(self), b = state_of_surface(other);
+            const MergeUnit ua{self_id, cell.plane, cell.vertices_m, nullptr, polygon_area_m2(cell.vertices_m)};
+            const MergeUnit ub{other_id, old.plane, old_vertices, nullptr, polygon_area_m2(old_vertices)};
+            if (!merger_.evaluate(ua, a, ub, b, 0.0).in_range ||
+                seen_through(0.5 * (vertex_centroid(cell.vertices_m) + vertex_centroid(old_vertices)),
+                             camera_centre, self_id, other_id))
+              return self_id;
+            return merge_surfaces(self_id, std::move(a), other_id, std::move(b), touched, report);
+          });
     if (config_.bridge_long_gap_m > 0.0)
       id = bridge_long(id, fresh, ks, boxes, camera_centre, checked, touched, report);
   }
@@ -758,81 +782,44 @@ std::uint32_t GlobalMap::bridge_long(std::uint32_t id, std::span<const Planecell
   if (const auto it = surfaces_.find(id);
       it == surfaces_.end() || it->second.observations < mature || it->second.area_m2 < min_area)
     return id;
-  const double gap = config_.bridge_long_gap_m;
   const double min_cos = std::cos(config_.bridge_long_max_angle_deg * M_PI / 180.0);
-  std::vector<Aabb> reach;
-  Aabb all;
-  for (const Aabb& box : boxes) {
-    reach.push_back(box.inflated(gap));
-    all.extend(reach.back());
-  }
-  // Is a stored cell of a surface other than id and other_id within 0.2 m of `point`?
-  const auto third_surface_near = [&](const Eigen::Vector3d& point, std::uint32_t other_id) {
-    const auto hit = nearest_cell(point, 0.2);
-    if (!hit) return false;
-    const std::uint32_t s = cells_.at(hit->cell_id).surface;
-    return s != id && s != other_id;
+  const auto reject = [&](const Surface& self, const Surface& other) {
+    return other.observations < mature || other.area_m2 < min_area ||
+           std::abs(other.plane.normal().dot(self.plane.normal())) < min_cos;
   };
-  std::vector<std::uint32_t> nearby;
-  index_.candidates(all, nearby);
-  for (std::uint32_t cell_id : nearby) {
-    const auto cell_it = cells_.find(cell_id);
-    if (cell_it == cells_.end()) continue;
-    const MapCell& old = cell_it->second;
+  const auto visit = [&](std::uint32_t self_id, const MapCell& old, const std::vector<Eigen::Vector3f>& old_vertices,
+                         const Planecell& cell) {
     const std::uint32_t other_id = old.surface;
-    if (other_id == id || checked.contains(other_id)) continue;
-    const auto other_it = surfaces_.find(other_id);
-    if (other_it == surfaces_.end()) continue;
-    Surface& self = surfaces_.at(id);
-    Surface& other = other_it->second;
-    if (other.observations < mature || other.area_m2 < min_area ||
-        std::abs(other.plane.normal().dot(self.plane.normal())) < min_cos) {
-      checked.insert(other_id);
-      continue;
-    }
-    const std::vector<Eigen::Vector3f> old_vertices = old.vertices_m.vertices();
-    const Aabb old_box = bounds_of(old_vertices);
-    std::size_t w = 0;
-    while (w < ks.size() && !(reach[w].overlaps(old_box) &&
-                              polygons_within_m(fresh[ks[w]]->plane, fresh[ks[w]]->vertices_m, boxes[w],
-                                                old.plane, old_vertices, old_box, gap)))
-      ++w;
-    if (w == ks.size()) continue;  // this stored cell is out of reach; another of its surface may not be
-    checked.insert(other_id);
+    Surface& self = surfaces_.at(self_id);
+    Surface& other = surfaces_.at(other_id);
     // One plane: the step between the two planes at the cells' midpoint m (m moved onto self's).
     const Plane3 self_plane = self.plane, other_plane = other.plane;
-    const Eigen::Vector3d a = vertex_centroid(fresh[ks[w]]->vertices_m), b = vertex_centroid(old_vertices);
+    const Eigen::Vector3d a = vertex_centroid(cell.vertices_m), b = vertex_centroid(old_vertices);
     const Eigen::Vector3d m = 0.5 * (a + b);
     if (std::abs(other_plane.signed_distance(m - self_plane.signed_distance(m) * self_plane.normal)) >
         config_.bridge_long_max_step_m)
-      continue;
+      return self_id;
     // Hidden behind an occluder: a third surface near the camera ray in front of m, none behind.
     const Eigen::Vector3d to_m = m - camera_centre;
     const double range = to_m.norm();
     const Eigen::Vector3d ray = to_m / std::max(range, 1e-9);
     bool occluded = false;
     for (double t = 0.5; t <= range - 0.5 && !occluded; t += 0.25)
-      occluded = third_surface_near(camera_centre + t * ray, other_id);
-    if (!occluded) continue;
-    bool seen_through = false;
-    for (double t = 0.3; t <= 10.0 && !seen_through; t += 0.25)
-      seen_through = third_surface_near(m + t * ray, other_id);
-    if (seen_through) continue;
+      occluded = third_surface_near(camera_centre + t * ray, self_id, other_id);
+    if (!occluded || seen_through(m, camera_centre, self_id, other_id)) return self_id;
     // Unmapped: nothing else on the straight path between the two cells, on self's plane.
     const Eigen::Vector3d pa = a - self_plane.signed_distance(a) * self_plane.normal;
     const Eigen::Vector3d pb = b - self_plane.signed_distance(b) * self_plane.normal;
     const double length = (pb - pa).norm();
-    bool filled = false;
-    for (double t = 0.0; t <= length && !filled; t += 0.5)
-      filled = third_surface_near(pa + (pb - pa) * (t / std::max(length, 1e-9)), other_id);
-    if (filled) continue;
+    for (double t = 0.0; t <= length; t += 0.5)
+      if (third_surface_near(pa + (pb - pa) * (t / std::max(length, 1e-9)), self_id, other_id)) return self_id;
     wake(self);
     wake(other);
     LabelState sa = state_of_surface(self), sb = state_of_surface(other);
-    if (colour_similarity(sa.histogram, sb.histogram) < config_.bridge_long_min_colour) continue;
-    id = merge_surfaces(id, std::move(sa), other_id, std::move(sb), touched, report);
-  }
-  return id;
+    if (colour_similarity(sa.histogram, sb.histogram) < config_.bridge_long_min_colour) return self_id;
+    return merge_surfaces(self_id, std::move(sa), other_id, std::move(sb), touched, report);
+  };
+  return visit_reached_surfaces(id, fresh, ks, boxes, config_.bridge_long_gap_m, checked, reject, visit);
 }
 
 std::uint32_t GlobalMap::merge_surfaces(std::uint32_t a_id, LabelState a, std::uint32_t b_id, LabelState b,

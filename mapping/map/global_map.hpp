@@ -295,6 +295,23 @@ class GlobalMap {
   void bridge_surfaces(std::span<const Planecell* const> fresh, std::span<const std::size_t> fresh_input,
                        const Eigen::Vector3d& camera_centre, std::set<std::uint32_t>& touched,
                        MergeReport& report);
+  /// The bridges' walk: for each surface other than `id` and not in `checked` with a stored cell
+  /// `old` that one of this frame's cells fresh[ks[w]] (bounds boxes[w]) of surface `id` reaches
+  /// within `gap_m` (polygons_within_m; the index's candidates in id order), once per surface:
+  /// `other` goes into `checked`, then `id = visit(id, old, old's vertices, *fresh[ks[w]])` (a merge
+  /// may give `id` another surface). A surface with reject(self, other) goes into `checked`
+  /// unvisited. Returns `id`.
+  template <class Reject, class Visit>
+  std::uint32_t visit_reached_surfaces(std::uint32_t id, std::span<const Planecell* const> fresh,
+                                       std::span<const std::size_t> ks, std::span<const Aabb> boxes,
+                                       double gap_m, std::set<std::uint32_t>& checked, Reject&& reject,
+                                       Visit&& visit);
+  /// Is a stored cell of a surface other than `a` and `b` within 0.2 m of `point`?
+  bool third_surface_near(const Eigen::Vector3d& point, std::uint32_t a, std::uint32_t b) const;
+  /// Does the camera see through the gap at `m` between surfaces `a` and `b`: a third surface
+  /// near the camera ray 0.3–10 m behind m?
+  bool seen_through(const Eigen::Vector3d& m, const Eigen::Vector3d& camera_centre, std::uint32_t a,
+                    std::uint32_t b) const;
   /// MapConfig::bridge_long_gap_m: merges surface `id` (reached by the cells fresh[k], k in `ks`,
   /// with bounds `boxes`) with large surfaces on its plane across a gap that an occluder hides
   /// and nothing else fills; `checked` holds the surfaces already tested against it. Returns the
