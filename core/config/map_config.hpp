@@ -70,6 +70,13 @@ struct MapConfig {
   /// their gap. Without it the bridge merges different cars: cells merged across GT planes
   /// 6.0 → 7.0 % on the eight streets (seed 1: 6.8 → 7.9 %, 402 more car cells).
   double bridge_min_area_m2 = 20.0;
+  /// A bridge's two cells must each lie within this distance of the other surface's plane (m;
+  /// 0 = no such test). The CRF's step is measured at the cells' midpoint m, up to 2.5 m from
+  /// either cell, where a small surface's plane is an extrapolation: a sidewalk fragment a few
+  /// degrees off crosses the road's plane near the curb and passed the step test 15 cm above the
+  /// road. The cells themselves are where each plane was observed. 12 cm: below a curb's 15 cm,
+  /// above the 1° tilt (9 cm over 5 m) two views of one plane may differ by.
+  double bridge_max_cell_distance_m = 0.12;
   /// Long bridges (m; 0 = off, else > bridge_gap_m): parked cars hide 10 m and more of a sidewalk
   /// from every view, beyond bridge_gap_m. Two mature surfaces each covering at least
   /// bridge_long_min_area_m2 (their planes are then well determined) merge across a gap of up to
@@ -218,6 +225,7 @@ void visit_fields(MapConfig& c, Visitor&& visit) {
   visit("neighbour_gap_m", c.neighbour_gap_m);
   visit("bridge_gap_m", c.bridge_gap_m);
   visit("bridge_min_area_m2", c.bridge_min_area_m2);
+  visit("bridge_max_cell_distance_m", c.bridge_max_cell_distance_m);
   visit("bridge_long_gap_m", c.bridge_long_gap_m);
   visit("bridge_long_min_area_m2", c.bridge_long_min_area_m2);
   visit("bridge_long_max_angle_deg", c.bridge_long_max_angle_deg);

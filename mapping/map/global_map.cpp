@@ -227,6 +227,9 @@ GlobalMap::GlobalMap(const MapConfig& config)
                       std::to_string(config.bridge_gap_m) +
                       "), with bridge_long_min_area_m2 >= 0, bridge_long_max_angle_deg in (0, 90], "
                       "bridge_long_max_step_m > 0 and bridge_long_min_colour in [0, 1]");
+  if (!(config.bridge_max_cell_distance_m >= 0.0) || !std::isfinite(config.bridge_max_cell_distance_m))
+    throw ConfigError("map.bridge_max_cell_distance_m: must be a finite distance >= 0 (0 = off), got " +
+                      std::to_string(config.bridge_max_cell_distance_m));
   if (!(config.bridge_min_area_m2 >= 0.0))
     throw ConfigError("map.bridge_min_area_m2: must be >= 0 (0 = any), got " +
                       std::to_string(config.bridge_min_area_m2));
@@ -762,6 +765,11 @@ void GlobalMap::bridge_surfaces(std::span<const Planecell* const> fresh, std::sp
             LabelState a = state_of_surface(self), b = state_of_surface(other);
             const MergeUnit ua{self_id, cell.plane, cell.vertices_m, nullptr, polygon_area_m2(cell.vertices_m)};
             const MergeUnit ub{other_id, old.plane, old_vertices, nullptr, polygon_area_m2(old_vertices)};
+            // Each cell on the other's plane where it was observed (bridge_max_cell_distance_m).
+            const double max_cell_m = config_.bridge_max_cell_distance_m;
+            if (max_cell_m > 0.0 && (std::abs(b.plane.signed_distance(vertex_centroid(cell.vertices_m))) > max_cell_m ||
+                                     std::abs(a.plane.signed_distance(vertex_centroid(old_vertices))) > max_cell_m))
+              return self_id;
             if (!merger_.evaluate(ua, a, ub, b, 0.0).in_range ||
                 seen_through(0.5 * (vertex_centroid(cell.vertices_m) + vertex_centroid(old_vertices)),
                              camera_centre, self_id, other_id))

@@ -899,12 +899,14 @@ TEST(Dormancy, NeverWhenOffAndNotBeforeConsolidation) {
 /// Bridging over an occlusion gap: a wall at z = 10 seen in two segments 3 m apart, x ∈ [−8, −2]
 /// × y ∈ [−2, 2] in frame 0 (24 cells of 1 m: large and mature) and x ∈ [1, 3] × y ∈ [0, 2] in
 /// frame 1 (four cells: mature). Optionally a back wall at z = 14 (colour bin 5) seen through the
-/// gap, the second segment `step_m` nearer than the first, or the first one only 2 m × 2 m (as
-/// small as the side of a parked car).
+/// gap, the second segment `step_m` nearer than the first and tilted about its centre line x = 2
+/// (z = 10 − step_m + slope·(x − 2)), or the first one only 2 m × 2 m (as small as the side of a
+/// parked car).
 struct BridgeCase {
   MapConfig config;
   bool back_wall = false;
   float step_m = 0.0f;
+  float slope = 0.0f;
   bool small_first = false;
   std::vector<MergeReport> run() const {
     GlobalMap map(config);
@@ -914,7 +916,8 @@ struct BridgeCase {
     else
       test::tile(first, {-8, -2, 10}, kX, kY, 6, 4, 1, 0, 0);
     if (back_wall) test::tile(first, {-6, -1, 14}, kX, kY, 12, 4, 2, 0, 5);
-    test::tile(second, {1, 0, 10 - step_m}, kX, kY, 2, 2, 1, 0, 0);
+    const Eigen::Vector3f along = Eigen::Vector3f(1, 0, slope).normalized();
+    test::tile(second, {1, 0, 10 - step_m - slope}, along, kY, 2 * std::sqrt(1 + slope * slope), 2, 1, 0, 0);
     std::vector<MergeReport> reports;
     reports.push_back(map.integrate(0, Pose::Identity(), first));
     reports.push_back(map.integrate(1, Pose::Identity(), second));
@@ -962,6 +965,31 @@ TEST(Bridge, NoMergeWhenOffOutOfReachSmallSeenThroughOrNotOnOnePlane) {
   stepped.step_m = 0.15f;
   stepped.run();
   EXPECT_EQ(stepped.surfaces_after, 2u);
+}
+
+TEST(Bridge, NoMergeWhenACellLiesOffTheOtherPlaneThoughThePlanesMeetInTheGap) {
+  // The second segment 20 cm nearer and tilted 4.6° (slope −0.08): its plane reaches the first's
+  // (z = 10) at x = −0.5, the midpoint between the cells of the two segments closest to each other
+  // (x = 1.5 and −2.5), so the CRF's step there is 0. Its own cells lie 12.8–19.2 cm in front of
+  // the first segment's plane (z = 9.88 at x = 1 to 9.72 at x = 3), and the first segment's
+  // nearest cell (x = −2.5) 16 cm behind the second's plane.
+  BridgeCase tilted;
+  tilted.step_m = 0.2f;
+  tilted.slope = -0.08f;
+  ASSERT_EQ(tilted.config.bridge_max_cell_distance_m, 0.12);  // on by default
+  tilted.run();
+  EXPECT_EQ(tilted.surfaces_after, 2u);
+  tilted.config.bridge_max_cell_distance_m = 0.0;  // off: the midpoint step alone bridges them
+  tilted.run();
+  EXPECT_EQ(tilted.surfaces_after, 1u);
+  tilted.config.bridge_max_cell_distance_m = 0.25;  // both cells within 25 cm of the other plane
+  tilted.run();
+  EXPECT_EQ(tilted.surfaces_after, 1u);
+  BridgeCase flat;  // one plane: the default bridges it as before
+  flat.run();
+  EXPECT_EQ(flat.surfaces_after, 1u);
+  flat.config.bridge_max_cell_distance_m = -0.1;
+  EXPECT_CONTAINS(test::error_of<ConfigError>([&] { flat.run(); }), "map.bridge_max_cell_distance_m");
 }
 
 /// A long bridge: two 6 m × 4 m floor patches at y = 1.5 (x ∈ [−3, 3]), z ∈ [8, 12] in frame 0
