@@ -108,6 +108,8 @@ TEST(ConfigLoader, ShippedPresetsLoad) {
   EXPECT_EQ(refine.extraction.photometric_iterations, 5);
   EXPECT_EQ(refine.map.bridge_gap_m, 5.0);
   EXPECT_EQ(refine.map.bridge_min_area_m2, 0.0);  // bridges small surfaces too, as measured
+  EXPECT_EQ(refine.map.bridge_max_cell_distance_m, 0.0);  // and without the cells' plane test
+  EXPECT_EQ(load_config(dir / "synthetic.yaml").map.bridge_max_cell_distance_m, 0.12);
   EXPECT_EQ(refine.map.min_inlier_ratio, 0.0);  // keeps the weak fits the default map drops
   EXPECT_EQ(load_config(dir / "synthetic.yaml").map.min_inlier_ratio, MapConfig{}.min_inlier_ratio);
   // The default bridge: large surfaces only.
