@@ -303,7 +303,7 @@ void GlobalMap::absorb_surface(std::uint32_t into_id, std::uint32_t absorbed_id,
                                MergeReport& report) {
   Surface& into = surfaces_.at(into_id);
   Surface& absorbed = surfaces_.at(absorbed_id);
-  wake(into);  // both took part in a merge test, which woke them: no-ops
+  wake(into);  // the CRF's labels are awake already; a bridge tests dormant surfaces asleep
   wake(absorbed);
   for (std::uint32_t id : absorbed.cells) {
     cells_.at(id).surface = into.id;
@@ -758,21 +758,21 @@ void GlobalMap::bridge_surfaces(std::span<const Planecell* const> fresh, std::sp
           [&](std::uint32_t self_id, const MapCell& old, const std::vector<Eigen::Vector3f>& old_vertices,
               const Planecell& cell) {
             const std::uint32_t other_id = old.surface;
-            Surface& self = surfaces_.at(self_id);
-            Surface& other = surfaces_.at(other_id);
-            wake(self);
-            wake(other);
+            const Surface& self = surfaces_.at(self_id);
+            const Surface& other = surfaces_.at(other_id);
+            // Each cell on the other's plane where it was observed (bridge_max_cell_distance_m).
+            const Eigen::Vector3d ca = vertex_centroid(cell.vertices_m), cb = vertex_centroid(old_vertices);
+            const double max_cell_m = config_.bridge_max_cell_distance_m;
+            if (max_cell_m > 0.0 && (std::abs(other.plane.signed_distance(ca)) > max_cell_m ||
+                                     std::abs(self.plane.signed_distance(cb)) > max_cell_m))
+              return self_id;
+            // A dormant surface's label state comes from its quiet moments: tested asleep, woken
+            // only by a merge (absorb_surface).
             LabelState a = state_of_surface(self), b = state_of_surface(other);
             const MergeUnit ua{self_id, cell.plane, cell.vertices_m, nullptr, polygon_area_m2(cell.vertices_m)};
             const MergeUnit ub{other_id, old.plane, old_vertices, nullptr, polygon_area_m2(old_vertices)};
-            // Each cell on the other's plane where it was observed (bridge_max_cell_distance_m).
-            const double max_cell_m = config_.bridge_max_cell_distance_m;
-            if (max_cell_m > 0.0 && (std::abs(b.plane.signed_distance(vertex_centroid(cell.vertices_m))) > max_cell_m ||
-                                     std::abs(a.plane.signed_distance(vertex_centroid(old_vertices))) > max_cell_m))
-              return self_id;
             if (!merger_.evaluate(ua, a, ub, b, 0.0).in_range ||
-                seen_through(0.5 * (vertex_centroid(cell.vertices_m) + vertex_centroid(old_vertices)),
-                             camera_centre, self_id, other_id))
+                seen_through(0.5 * (ca + cb), camera_centre, self_id, other_id))
               return self_id;
             return merge_surfaces(self_id, std::move(a), other_id, std::move(b), touched, report);
           });
@@ -798,8 +798,8 @@ std::uint32_t GlobalMap::bridge_long(std::uint32_t id, std::span<const Planecell
   const auto visit = [&](std::uint32_t self_id, const MapCell& old, const std::vector<Eigen::Vector3f>& old_vertices,
                          const Planecell& cell) {
     const std::uint32_t other_id = old.surface;
-    Surface& self = surfaces_.at(self_id);
-    Surface& other = surfaces_.at(other_id);
+    const Surface& self = surfaces_.at(self_id);
+    const Surface& other = surfaces_.at(other_id);
     // One plane: the step between the two planes at the cells' midpoint m (m moved onto self's).
     const Plane3 self_plane = self.plane, other_plane = other.plane;
     const Eigen::Vector3d a = vertex_centroid(cell.vertices_m), b = vertex_centroid(old_vertices);
@@ -821,9 +821,7 @@ std::uint32_t GlobalMap::bridge_long(std::uint32_t id, std::span<const Planecell
     const double length = (pb - pa).norm();
     for (double t = 0.0; t <= length; t += 0.5)
       if (third_surface_near(pa + (pb - pa) * (t / std::max(length, 1e-9)), self_id, other_id)) return self_id;
-    wake(self);
-    wake(other);
-    LabelState sa = state_of_surface(self), sb = state_of_surface(other);
+    LabelState sa = state_of_surface(self), sb = state_of_surface(other);  // asleep too (above)
     if (colour_similarity(sa.histogram, sb.histogram) < config_.bridge_long_min_colour) return self_id;
     return merge_surfaces(self_id, std::move(sa), other_id, std::move(sb), touched, report);
   };
