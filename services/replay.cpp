@@ -150,8 +150,13 @@ ReplayReport run_replay(const ReplayOptions& options, const AppConfig& config) {
         const auto surfaces = io::read_scene_surfaces(scene);
         merge_evaluator->set_gt_planes(eval::coplanar_groups(surfaces));
         std::unordered_map<std::uint16_t, Plane3> planes;
-        for (const auto& surface : surfaces) planes.emplace(surface.id, surface.plane);
+        std::unordered_map<std::uint16_t, std::string> kinds;
+        for (const auto& surface : surfaces) {
+          planes.emplace(surface.id, surface.plane);
+          kinds.emplace(surface.id, io::to_string(surface.kind));
+        }
         merge_evaluator->set_gt_surface_planes(std::move(planes));
+        merge_evaluator->set_gt_kinds(std::move(kinds));
       } catch (const InputError& e) {
         spdlog::warn("replay: {}; cross-merging is counted per GT surface only", e.what());
       }
@@ -435,6 +440,16 @@ nlohmann::json to_json(const ReplayReport& r) {
         {"labels", m.labels}, {"area_in_dominant_label", m.area_in_dominant_label},
         {"area_one_label", m.area_one_label}, {"cross_merged_cells", m.cross_merged_cells},
         {"cross_merged_cells_between_planes", m.cross_merged_cells_between_planes}};
+    auto by_kind = nlohmann::json::array();
+    for (const auto& k : m.by_kind)
+      by_kind.push_back({{"kind", k.kind}, {"gt_surfaces", k.gt_surfaces}, {"area", k.area},
+                         {"area_one_label", k.one_label}, {"area_not_one_label", k.lost}});
+    out["merge_vs_ground_truth"]["by_kind"] = by_kind;
+    auto split = nlohmann::json::array();
+    for (const auto& g : m.split_surfaces)
+      split.push_back({{"gt", g.gt}, {"kind", g.kind}, {"area_m2", g.area_m2},
+                       {"dominant_share", g.dominant_share}, {"labels", g.labels}});
+    out["merge_vs_ground_truth"]["largest_split_surfaces"] = split;
     if (m.plane_error_cells > 0) {  // GT planes known
       out["merge_vs_ground_truth"]["cross_merged_cells_resolvable"] = m.cross_merged_cells_resolvable;
       out["cell_planes_vs_ground_truth"] = {
@@ -494,6 +509,12 @@ std::string summary_text(const ReplayReport& r) {
         << " % of cells merged across GT surfaces, " << 100.0 * m.cross_merged_cells_between_planes
         << " % across GT planes (" << m.gt_surfaces << " GT surfaces -> " << m.labels
         << " labels, " << m.cells << " cells, " << m.mixed_cells << " mixed cells left out)\n";
+    if (m.area_one_label < 1.0 && !m.by_kind.empty()) {
+      out << "  GT area not in one label, by kind (% of all GT area):";
+      for (const auto& k : m.by_kind)
+        if (k.lost > 0.0) out << " " << k.kind << " " << 100.0 * k.lost;
+      out << "\n";
+    }
     if (m.plane_error_cells > 0) {
       out << "  merged across GT planes further than 2 sigma_Z (the cell's own depth noise) from its GT plane: "
           << 100.0 * m.cross_merged_cells_resolvable << " % of cells\n";

@@ -109,6 +109,7 @@ MergeMetrics MergeEvaluator::finish() const {
   m.gt_surfaces = gt_label_area.size();
   m.labels = label_gt_area.size();
   double total = 0.0, dominant = 0.0, one_label = 0.0;
+  std::map<std::string, MergeMetrics::KindShare> kinds;
   for (const auto& [gt, per_label] : gt_label_area) {
     double area = 0.0, best = 0.0;
     for (const auto& [label, a] : per_label) {
@@ -117,12 +118,32 @@ MergeMetrics MergeEvaluator::finish() const {
     }
     total += area;
     dominant += best;
-    if (best >= 0.9 * area) one_label += area;
+    const bool one = best >= 0.9 * area;
+    if (one) one_label += area;
+    const auto kind_it = gt_kinds_.find(gt);
+    const std::string kind = kind_it == gt_kinds_.end() ? "unknown" : kind_it->second;
+    MergeMetrics::KindShare& share = kinds[kind];
+    share.kind = kind;
+    ++share.gt_surfaces;
+    share.area += area;
+    if (one) share.one_label += area;
+    else if (area > 0.0) m.split_surfaces.push_back({gt, kind, area, best / area, per_label.size()});
   }
   if (total > 0.0) {
     m.area_in_dominant_label = dominant / total;
     m.area_one_label = one_label / total;
+    for (auto& [kind, share] : kinds) {
+      share.area /= total;
+      share.one_label /= total;
+      share.lost = share.area - share.one_label;
+      m.by_kind.push_back(share);
+    }
   }
+  std::stable_sort(m.by_kind.begin(), m.by_kind.end(), [](const auto& a, const auto& b) { return a.lost > b.lost; });
+  std::stable_sort(m.split_surfaces.begin(), m.split_surfaces.end(),
+                   [](const auto& a, const auto& b) { return a.area_m2 > b.area_m2; });
+  if (m.split_surfaces.size() > MergeMetrics::kSplitSurfacesReported)
+    m.split_surfaces.resize(MergeMetrics::kSplitSurfacesReported);
   std::map<std::uint32_t, std::uint16_t> dominant_gt;
   for (const auto& [label, per_gt] : label_gt_area)
     dominant_gt[label] = std::max_element(per_gt.begin(), per_gt.end(), [](const auto& a, const auto& b) {

@@ -5,6 +5,7 @@
 #include <cstdint>
 #include <opencv2/core/mat.hpp>
 #include <span>
+#include <string>
 #include <unordered_map>
 #include <unordered_set>
 #include <vector>
@@ -58,6 +59,28 @@ struct MergeMetrics {
   double depth_sigma_median_m = 0.0;
   /// Median of ε / σ_Z over the measured cells with σ_Z > 0.
   double plane_error_over_sigma_median = 0.0;
+  // --- where the area not in one label lies (MergeEvaluator::set_gt_kinds) --------------------
+  /// One kind of GT surface (the renderer's: facade, sidewalk, car, …; "unknown" without kinds).
+  /// Shares are of the total GT area A = Σ_g A(g), so Σ_kinds lost = 1 − area_one_label.
+  struct KindShare {
+    std::string kind;
+    std::size_t gt_surfaces = 0;
+    double area = 0.0;       ///< Σ A(g) of the kind's GT surfaces / A
+    double one_label = 0.0;  ///< Σ A(g) of those that are one label / A
+    double lost = 0.0;       ///< area − one_label: what the kind takes from area_one_label
+  };
+  std::vector<KindShare> by_kind;  ///< sorted by `lost`, largest first
+  /// A GT surface that is not one label: A(g, L*(g)) < 0.9 A(g).
+  struct SplitSurface {
+    std::uint16_t gt = 0;
+    std::string kind;
+    double area_m2 = 0.0;         ///< A(g): cell area over every frame
+    double dominant_share = 0.0;  ///< A(g, L*(g)) / A(g)
+    std::size_t labels = 0;       ///< final labels holding some of it
+  };
+  /// The kSplitSurfacesReported largest of them by A(g), largest first.
+  std::vector<SplitSurface> split_surfaces;
+  static constexpr std::size_t kSplitSurfacesReported = 10;
 };
 
 /// GT plane groups of a synthetic scene: surfaces a and b share a group when their planes agree
@@ -93,6 +116,9 @@ class MergeEvaluator {
   /// GT surface id → its world-frame plane (the synthetic scene's): from then on add_frame also
   /// measures each pure cell's plane error against its GT surface (MergeMetrics::plane_error_*).
   void set_gt_surface_planes(std::unordered_map<std::uint16_t, Plane3> planes) { gt_planes_ = std::move(planes); }
+  /// GT surface id → its kind (io::to_string of the scene's SurfaceKind): finish() then breaks
+  /// the area not in one label down by kind (MergeMetrics::by_kind, split_surfaces).
+  void set_gt_kinds(std::unordered_map<std::uint16_t, std::string> kinds) { gt_kinds_ = std::move(kinds); }
 
  private:
   struct Sample {
@@ -110,6 +136,7 @@ class MergeEvaluator {
   std::unordered_set<std::uint32_t> pruned_;  ///< surfaces pruned as unconfirmed: not in the map
   std::unordered_map<std::uint16_t, std::uint16_t> groups_;  ///< GT id → GT plane group
   std::unordered_map<std::uint16_t, Plane3> gt_planes_;     ///< GT id → world plane
+  std::unordered_map<std::uint16_t, std::string> gt_kinds_;  ///< GT id → kind
   std::vector<float> plane_errors_m_;  ///< ε of each measured cell
   std::vector<float> depth_sigmas_m_;  ///< σ_Z of the same cells
 };

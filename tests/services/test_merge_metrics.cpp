@@ -163,6 +163,60 @@ TEST(MergeMetrics, SplitSurfaceIsCountedAndLaterSurfaceMergesAreFollowed) {
   EXPECT_NEAR(m.cross_merged_cells, 0.0, 1e-12);
 }
 
+TEST(MergeMetrics, AreaNotInOneLabelIsBrokenDownByKindWithTheLargestSplitSurfaces) {
+  // GT 1 (a facade) lies 2 m² in label 10 and 2 m² in label 11; GT 2 (a door) 1 m² in label 20;
+  // GT 3 (a car) 1.5 m² in label 30 and 0.5 m² in label 31. Total 7 m²: only the door is one label.
+  MergeEvaluator eval;
+  eval.set_gt_kinds({{1, "facade"}, {2, "door"}, {3, "car"}});
+  cv::Mat labels, gt;
+  const auto frame = [&](int left, int right, std::uint16_t gt_left, std::uint16_t gt_right, float side_left,
+                         float side_right, std::uint32_t surface_left, std::uint32_t surface_right) {
+    halves(labels, gt, left, right, gt_left, gt_right);
+    map::MergeReport report;
+    report.cell_surfaces = {surface_left, surface_right};
+    eval.add_frame(labels, gt, std::vector<Planecell>{square(left, side_left), square(right, side_right)}, report);
+  };
+  frame(0, 1, 1, 2, std::sqrt(2.0f), 1.0f, 10, 20);
+  frame(0, 1, 1, 3, std::sqrt(2.0f), std::sqrt(1.5f), 11, 30);
+  frame(0, 1, 2, 3, 0.0f, std::sqrt(0.5f), 20, 31);  // a zero-area door cell: adds nothing
+  const MergeMetrics m = eval.finish();
+  EXPECT_NEAR(m.area_one_label, 1.0 / 7.0, 1e-6);
+  ASSERT_EQ(m.by_kind.size(), 3u);
+  EXPECT_EQ(m.by_kind[0].kind, "facade");  // largest loss first
+  EXPECT_NEAR(m.by_kind[0].area, 4.0 / 7.0, 1e-6);
+  EXPECT_NEAR(m.by_kind[0].one_label, 0.0, 1e-9);
+  EXPECT_NEAR(m.by_kind[0].lost, 4.0 / 7.0, 1e-6);
+  EXPECT_EQ(m.by_kind[1].kind, "car");
+  EXPECT_NEAR(m.by_kind[1].lost, 2.0 / 7.0, 1e-6);
+  EXPECT_EQ(m.by_kind[2].kind, "door");
+  EXPECT_EQ(m.by_kind[2].gt_surfaces, 1u);
+  EXPECT_NEAR(m.by_kind[2].one_label, 1.0 / 7.0, 1e-6);
+  EXPECT_NEAR(m.by_kind[2].lost, 0.0, 1e-9);
+  double lost = 0.0;
+  for (const auto& k : m.by_kind) lost += k.lost;
+  EXPECT_NEAR(lost, 1.0 - m.area_one_label, 1e-9);
+  ASSERT_EQ(m.split_surfaces.size(), 2u);  // largest first; the door is one label
+  EXPECT_EQ(m.split_surfaces[0].gt, 1);
+  EXPECT_EQ(m.split_surfaces[0].kind, "facade");
+  EXPECT_NEAR(m.split_surfaces[0].area_m2, 4.0, 1e-5);
+  EXPECT_NEAR(m.split_surfaces[0].dominant_share, 0.5, 1e-6);
+  EXPECT_EQ(m.split_surfaces[0].labels, 2u);
+  EXPECT_EQ(m.split_surfaces[1].gt, 3);
+  EXPECT_NEAR(m.split_surfaces[1].dominant_share, 0.75, 1e-6);
+  // Without kinds every GT surface is of kind "unknown".
+  MergeEvaluator plain;
+  halves(labels, gt, 0, 1, 1, 2);
+  map::MergeReport report;
+  report.cell_surfaces = {10, 20};
+  plain.add_frame(labels, gt, std::vector<Planecell>{square(0, 1.0f), square(1, 1.0f)}, report);
+  const MergeMetrics p = plain.finish();
+  ASSERT_EQ(p.by_kind.size(), 1u);
+  EXPECT_EQ(p.by_kind[0].kind, "unknown");
+  EXPECT_EQ(p.by_kind[0].gt_surfaces, 2u);
+  EXPECT_NEAR(p.by_kind[0].lost, 0.0, 1e-9);
+  EXPECT_TRUE(p.split_surfaces.empty());
+}
+
 TEST(MergeMetrics, MixedAndRejectedCellsAreLeftOut) {
   MergeEvaluator eval;
   cv::Mat labels, gt;

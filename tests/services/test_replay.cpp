@@ -71,6 +71,17 @@ TEST_F(ReplayTest, MapsEveryFrameAndStoresThem) {
   EXPECT_GT(report.merge_metrics->area_in_dominant_label, 0.0);
   EXPECT_LE(report.merge_metrics->area_in_dominant_label, 1.0);
   EXPECT_LE(report.merge_metrics->area_one_label, report.merge_metrics->area_in_dominant_label);
+  // The scene's kinds (road, facade, …) break the area not in one label down: the shares add up
+  // to what area_one_label leaves, and the report names each kind.
+  double kinds_area = 0.0, kinds_lost = 0.0;
+  for (const auto& k : report.merge_metrics->by_kind) {
+    EXPECT_NE(k.kind, "unknown");
+    kinds_area += k.area;
+    kinds_lost += k.lost;
+  }
+  EXPECT_NEAR(kinds_area, 1.0, 1e-9);
+  EXPECT_NEAR(kinds_lost, 1.0 - report.merge_metrics->area_one_label, 1e-9);
+  ASSERT_EQ(json["merge_vs_ground_truth"]["by_kind"].size(), report.merge_metrics->by_kind.size());
   ASSERT_EQ(report.stage_latency.size(), 6u);  // load, sgm, extract, transform, merge, store
   // One integrate() time per frame, each inside its frame's merge stage.
   ASSERT_EQ(report.merge_ms.size(), 4u);
