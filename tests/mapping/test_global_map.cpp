@@ -223,6 +223,27 @@ TEST(GlobalMapTest, FirstCellOfASurfaceFillsOneFootprintTile) {
   EXPECT_NEAR(std::abs(centre.y()), 1.6, 1e-6);
 }
 
+TEST(GlobalMapQueries, NearestCellBeyondAnEdgeOfACellWhoseVerticesLieOffItsPlane) {
+  // nearest_cell skips a cell when a lower bound of its distance is out of range. The cell below
+  // is the square y = 0, x, z ∈ [0, 2], stored with its plane tilted 12° about z through (1, 0, 1):
+  // n = (−sin 12°, cos 12°, 0), so the edge x = 2 lies 0.208 m off the plane. From p = (2.2, −0.1, 1)
+  // the plane is |n·(p − c)| = 0.348 m away, but p projects beyond that edge: its distance is the
+  // edge's, √(0.2² + 0.1²) = 0.224 m. A bound of |n·p + e| alone would skip the cell at 0.3 m.
+  Planecell cell = rect_cell(0, {0, 0, 0}, kX * 2, kZ * 2, 0);
+  const double tilt = 12.0 * M_PI / 180.0;
+  const Eigen::Vector3d normal(-std::sin(tilt), std::cos(tilt), 0.0);
+  cell.plane = Plane3{normal, -normal.dot(Eigen::Vector3d(1, 0, 1))};
+  GlobalMap map;
+  map.integrate(1, Pose::Identity(), std::vector<Planecell>{cell});
+  ASSERT_EQ(map.cells().size(), 1u);
+  const Eigen::Vector3d p(2.2, -0.1, 1.0);
+  ASSERT_NEAR(std::abs(map.cells().begin()->second.plane.signed_distance(p)), 0.348, 1e-3);
+  const auto hit = map.nearest_cell(p, 0.3);
+  ASSERT_TRUE(hit.has_value());
+  EXPECT_NEAR(hit->distance_m, std::sqrt(0.05), 1e-6);
+  EXPECT_FALSE(map.nearest_cell(p, 0.2).has_value());
+}
+
 TEST(GlobalMapQueries, DistanceToNearestCellInsideAndOutsideThePolygon) {
   GlobalMap map;
   // Ground square y = 0, x, z ∈ [0, 2].
