@@ -316,6 +316,16 @@ std::string format_markdown(const BenchReport& r) {
                 m.plane_error_cells > 0 ? number(100 * m.cross_merged_cells_resolvable, 2) : std::string("—"),
                 std::to_string(m.gt_surfaces), std::to_string(m.labels), std::to_string(m.cells)}})
        << again;
+    if (!m.by_kind.empty()) {
+      std::vector<std::vector<std::string>> rows;
+      for (const auto& k : m.by_kind)
+        rows.push_back({k.kind, std::to_string(k.gt_surfaces), number(100 * k.area, 1), number(100 * k.one_label, 1),
+                        number(100 * k.lost, 1)});
+      md << "\nBy kind of GT surface (% of all GT area; the last column adds up to what the one-label "
+            "figure misses):\n\n"
+         << report::table({"kind", "GT surfaces", "GT area %", "in one label %", "not in one label %"}, rows)
+         << again;
+    }
   }
 
   // --- settings --------------------------------------------------------------------------------

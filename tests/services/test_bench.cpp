@@ -202,6 +202,9 @@ TEST_F(BenchTest, MarkdownStatesThePapersFiguresNextToThisRun) {
   std::ostringstream p50;
   p50 << std::fixed << std::setprecision(1) << merge["p50_ms"].get<double>();
   EXPECT_CONTAINS(md, p50.str() + " ms p50 |");
+  // The merge's GT breakdown by kind of surface, one row per kind of the rendered scene.
+  EXPECT_CONTAINS(md, "| kind | GT surfaces | GT area % | in one label % | not in one label % |");
+  EXPECT_CONTAINS(md, "| road |");
 }
 
 TEST_F(BenchTest, ThreadedRunScoresTheSameFramesTheSame) {
