@@ -31,19 +31,9 @@ std::optional<CellDistance> GlobalMap::nearest_cell(const Eigen::Vector3d& point
     Aabb box;
     box.extend(point);
     std::optional<CellDistance> best;
-    VertexScratch scratch;
     for (std::uint32_t id : query_cells(box.inflated(radius))) {
       const MapCell& c = cells_.at(id);
-      const Plane3 plane = c.plane;
-      const std::span<const Eigen::Vector3f> vertices = as_span(c.vertices_m, scratch);
-      // A lower bound of the distance, |n·p + e| − max_k |n·v_k + e|: the projection inside the
-      // polygon is |n·p + e| away, any point of an edge lies within max_k |n·v_k + e| of the plane.
-      // A cell it puts beyond the range or the best so far is skipped (exactly: d ≥ bound).
-      double off_plane = 0.0;
-      for (const auto& v : vertices) off_plane = std::max(off_plane, std::abs(plane.signed_distance(v.cast<double>())));
-      const double bound = std::abs(plane.signed_distance(point)) - off_plane;
-      if (bound > max_distance_m || (best && bound >= best->distance_m)) continue;
-      const double d = distance_to_polygon(point, plane, vertices);
+      const double d = distance_to_polygon(point, c.plane, c.vertices_m);
       if (d <= max_distance_m && (!best || d < best->distance_m)) best = CellDistance{id, d};
     }
     if ((best && best->distance_m <= radius) || radius >= max_distance_m) return best;

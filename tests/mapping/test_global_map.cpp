@@ -224,11 +224,11 @@ TEST(GlobalMapTest, FirstCellOfASurfaceFillsOneFootprintTile) {
 }
 
 TEST(GlobalMapQueries, NearestCellBeyondAnEdgeOfACellWhoseVerticesLieOffItsPlane) {
-  // nearest_cell skips a cell when a lower bound of its distance is out of range. The cell below
-  // is the square y = 0, x, z ∈ [0, 2], stored with its plane tilted 12° about z through (1, 0, 1):
+  // The distance beyond an edge is the edge's, not the plane's. The cell below is the square
+  // y = 0, x, z ∈ [0, 2], stored with its plane tilted 12° about z through (1, 0, 1):
   // n = (−sin 12°, cos 12°, 0), so the edge x = 2 lies 0.208 m off the plane. From p = (2.2, −0.1, 1)
   // the plane is |n·(p − c)| = 0.348 m away, but p projects beyond that edge: its distance is the
-  // edge's, √(0.2² + 0.1²) = 0.224 m. A bound of |n·p + e| alone would skip the cell at 0.3 m.
+  // edge's, √(0.2² + 0.1²) = 0.224 m (a search that skipped cells by |n·p + e| would miss it).
   Planecell cell = rect_cell(0, {0, 0, 0}, kX * 2, kZ * 2, 0);
   const double tilt = 12.0 * M_PI / 180.0;
   const Eigen::Vector3d normal(-std::sin(tilt), std::cos(tilt), 0.0);
