@@ -150,10 +150,10 @@ ReplayReport run_replay(const ReplayOptions& options, const AppConfig& config) {
         const auto surfaces = io::read_scene_surfaces(scene);
         merge_evaluator->set_gt_planes(eval::coplanar_groups(surfaces));
         std::unordered_map<std::uint16_t, Plane3> planes;
-        std::unordered_map<std::uint16_t, std::string> kinds;
+        std::unordered_map<std::uint16_t, io::SurfaceKind> kinds;
         for (const auto& surface : surfaces) {
           planes.emplace(surface.id, surface.plane);
-          kinds.emplace(surface.id, io::to_string(surface.kind));
+          kinds.emplace(surface.id, surface.kind);
         }
         merge_evaluator->set_gt_surface_planes(std::move(planes));
         merge_evaluator->set_gt_kinds(std::move(kinds));

@@ -121,9 +121,8 @@ MergeMetrics MergeEvaluator::finish() const {
     const bool one = best >= 0.9 * area;
     if (one) one_label += area;
     const auto kind_it = gt_kinds_.find(gt);
-    const std::string kind = kind_it == gt_kinds_.end() ? "unknown" : kind_it->second;
-    MergeMetrics::KindShare& share = kinds[kind];
-    share.kind = kind;
+    const std::string kind = kind_it == gt_kinds_.end() ? "unknown" : io::to_string(kind_it->second);
+    MergeMetrics::KindShare& share = kinds.try_emplace(kind, MergeMetrics::KindShare{kind}).first->second;
     ++share.gt_surfaces;
     share.area += area;
     if (one) share.one_label += area;

@@ -116,9 +116,9 @@ class MergeEvaluator {
   /// GT surface id → its world-frame plane (the synthetic scene's): from then on add_frame also
   /// measures each pure cell's plane error against its GT surface (MergeMetrics::plane_error_*).
   void set_gt_surface_planes(std::unordered_map<std::uint16_t, Plane3> planes) { gt_planes_ = std::move(planes); }
-  /// GT surface id → its kind (io::to_string of the scene's SurfaceKind): finish() then breaks
-  /// the area not in one label down by kind (MergeMetrics::by_kind, split_surfaces).
-  void set_gt_kinds(std::unordered_map<std::uint16_t, std::string> kinds) { gt_kinds_ = std::move(kinds); }
+  /// GT surface id → its kind (the scene's): finish() then breaks the area not in one label down
+  /// by kind (MergeMetrics::by_kind, split_surfaces, named by io::to_string).
+  void set_gt_kinds(std::unordered_map<std::uint16_t, io::SurfaceKind> kinds) { gt_kinds_ = std::move(kinds); }
 
  private:
   struct Sample {
@@ -136,7 +136,7 @@ class MergeEvaluator {
   std::unordered_set<std::uint32_t> pruned_;  ///< surfaces pruned as unconfirmed: not in the map
   std::unordered_map<std::uint16_t, std::uint16_t> groups_;  ///< GT id → GT plane group
   std::unordered_map<std::uint16_t, Plane3> gt_planes_;     ///< GT id → world plane
-  std::unordered_map<std::uint16_t, std::string> gt_kinds_;  ///< GT id → kind
+  std::unordered_map<std::uint16_t, io::SurfaceKind> gt_kinds_;  ///< GT id → kind
   std::vector<float> plane_errors_m_;  ///< ε of each measured cell
   std::vector<float> depth_sigmas_m_;  ///< σ_Z of the same cells
 };

@@ -167,7 +167,7 @@ TEST(MergeMetrics, AreaNotInOneLabelIsBrokenDownByKindWithTheLargestSplitSurface
   // GT 1 (a facade) lies 2 m² in label 10 and 2 m² in label 11; GT 2 (a door) 1 m² in label 20;
   // GT 3 (a car) 1.5 m² in label 30 and 0.5 m² in label 31. Total 7 m²: only the door is one label.
   MergeEvaluator eval;
-  eval.set_gt_kinds({{1, "facade"}, {2, "door"}, {3, "car"}});
+  eval.set_gt_kinds({{1, io::SurfaceKind::kFacade}, {2, io::SurfaceKind::kDoor}, {3, io::SurfaceKind::kCar}});
   cv::Mat labels, gt;
   const auto frame = [&](int left, int right, std::uint16_t gt_left, std::uint16_t gt_right, float side_left,
                          float side_right, std::uint32_t surface_left, std::uint32_t surface_right) {
