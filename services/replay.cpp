@@ -6,6 +6,7 @@
 #include <chrono>
 #include <memory>
 #include <unordered_map>
+#include <unordered_set>
 #include <set>
 #include <sstream>
 #include <thread>
@@ -151,12 +152,15 @@ ReplayReport run_replay(const ReplayOptions& options, const AppConfig& config) {
         merge_evaluator->set_gt_planes(eval::coplanar_groups(surfaces));
         std::unordered_map<std::uint16_t, Plane3> planes;
         std::unordered_map<std::uint16_t, io::SurfaceKind> kinds;
+        std::unordered_set<std::uint16_t> weak_texture;
         for (const auto& surface : surfaces) {
           planes.emplace(surface.id, surface.plane);
           kinds.emplace(surface.id, surface.kind);
+          if (io::is_weakly_textured(surface.texture)) weak_texture.insert(surface.id);
         }
         merge_evaluator->set_gt_surface_planes(std::move(planes));
         merge_evaluator->set_gt_kinds(std::move(kinds));
+        merge_evaluator->set_gt_weak_texture(std::move(weak_texture));
       } catch (const InputError& e) {
         spdlog::warn("replay: {}; cross-merging is counted per GT surface only", e.what());
       }
@@ -445,10 +449,13 @@ nlohmann::json to_json(const ReplayReport& r) {
       by_kind.push_back({{"kind", k.kind}, {"gt_surfaces", k.gt_surfaces}, {"area", k.area},
                          {"area_one_label", k.one_label}, {"area_not_one_label", k.lost}});
     out["merge_vs_ground_truth"]["by_kind"] = by_kind;
+    const auto& w = m.weak_texture;
+    out["merge_vs_ground_truth"]["weak_texture"] = {{"gt_surfaces", w.gt_surfaces}, {"area", w.area},
+                                                    {"area_one_label", w.one_label}, {"area_not_one_label", w.lost}};
     auto split = nlohmann::json::array();
     for (const auto& g : m.split_surfaces)
-      split.push_back({{"gt", g.gt}, {"kind", g.kind}, {"area_m2", g.area_m2},
-                       {"dominant_share", g.dominant_share}, {"labels", g.labels}});
+      split.push_back({{"gt", g.gt}, {"kind", g.kind}, {"area_m2", g.area_m2}, {"dominant_share", g.dominant_share},
+                       {"labels", g.labels}, {"weak_texture", g.weak_texture}});
     out["merge_vs_ground_truth"]["largest_split_surfaces"] = split;
     if (m.plane_error_cells > 0) {  // GT planes known
       out["merge_vs_ground_truth"]["cross_merged_cells_resolvable"] = m.cross_merged_cells_resolvable;
@@ -514,6 +521,9 @@ std::string summary_text(const ReplayReport& r) {
       for (const auto& k : m.by_kind)
         if (k.lost > 0.0) out << " " << k.kind << " " << 100.0 * k.lost;
       out << "\n";
+      if (m.weak_texture.gt_surfaces > 0)
+        out << "  of it on weakly textured surfaces (any kind): " << 100.0 * m.weak_texture.lost << " (they hold "
+            << 100.0 * m.weak_texture.area << " % of GT area)\n";
     }
     if (m.plane_error_cells > 0) {
       out << "  merged across GT planes further than 2 sigma_Z (the cell's own depth noise) from its GT plane: "

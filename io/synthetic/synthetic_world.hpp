@@ -49,6 +49,10 @@ struct SurfaceTexture {
   std::uint32_t seed = 0;
 };
 
+/// Weakly textured: amplitude < 0.05 (the street's plain facades and glass, 0.03), too little
+/// contrast for stereo matching to measure the surface as well as a textured one.
+inline bool is_weakly_textured(const SurfaceTexture& texture) { return texture.amplitude < 0.05; }
+
 /// One planar, convex, textured polygon.
 /// A point of the surface is X = origin + s·u_axis + t·v_axis with (s, t) inside `polygon`;
 /// the plane is n·X + e = 0 with n = u_axis × v_axis (unit), e = −n·origin.

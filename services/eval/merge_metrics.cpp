@@ -123,10 +123,14 @@ MergeMetrics MergeEvaluator::finish() const {
     const auto kind_it = gt_kinds_.find(gt);
     const std::string kind = kind_it == gt_kinds_.end() ? "unknown" : io::to_string(kind_it->second);
     MergeMetrics::KindShare& share = kinds.try_emplace(kind, MergeMetrics::KindShare{kind}).first->second;
-    ++share.gt_surfaces;
-    share.area += area;
-    if (one) share.one_label += area;
-    else if (area > 0.0) m.split_surfaces.push_back({gt, kind, area, best / area, per_label.size()});
+    const bool weak = gt_weak_texture_.contains(gt);
+    for (MergeMetrics::KindShare* s : {&share, weak ? &m.weak_texture : nullptr}) {
+      if (!s) continue;
+      ++s->gt_surfaces;
+      s->area += area;
+      if (one) s->one_label += area;
+    }
+    if (!one && area > 0.0) m.split_surfaces.push_back({gt, kind, area, best / area, per_label.size(), weak});
   }
   if (total > 0.0) {
     m.area_in_dominant_label = dominant / total;
@@ -137,6 +141,9 @@ MergeMetrics MergeEvaluator::finish() const {
       share.lost = share.area - share.one_label;
       m.by_kind.push_back(share);
     }
+    m.weak_texture.area /= total;
+    m.weak_texture.one_label /= total;
+    m.weak_texture.lost = m.weak_texture.area - m.weak_texture.one_label;
   }
   std::stable_sort(m.by_kind.begin(), m.by_kind.end(), [](const auto& a, const auto& b) { return a.lost > b.lost; });
   std::stable_sort(m.split_surfaces.begin(), m.split_surfaces.end(),

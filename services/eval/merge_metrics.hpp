@@ -70,6 +70,10 @@ struct MergeMetrics {
     double lost = 0.0;       ///< area − one_label: what the kind takes from area_one_label
   };
   std::vector<KindShare> by_kind;  ///< sorted by `lost`, largest first
+  /// The GT surfaces of every kind that are weakly textured (MergeEvaluator::set_gt_weak_texture;
+  /// kind "weakly textured"): stereo matches them poorly, so their cells' planes are noisier
+  /// than the modelled σ_Z. Empty (0 surfaces) without texture ground truth.
+  KindShare weak_texture{"weakly textured"};
   /// A GT surface that is not one label: A(g, L*(g)) < 0.9 A(g).
   struct SplitSurface {
     std::uint16_t gt = 0;
@@ -77,6 +81,7 @@ struct MergeMetrics {
     double area_m2 = 0.0;         ///< A(g): cell area over every frame
     double dominant_share = 0.0;  ///< A(g, L*(g)) / A(g)
     std::size_t labels = 0;       ///< final labels holding some of it
+    bool weak_texture = false;    ///< in set_gt_weak_texture's set
   };
   /// The kSplitSurfacesReported largest of them by A(g), largest first.
   std::vector<SplitSurface> split_surfaces;
@@ -119,6 +124,10 @@ class MergeEvaluator {
   /// GT surface id → its kind (the scene's): finish() then breaks the area not in one label down
   /// by kind (MergeMetrics::by_kind, split_surfaces, named by io::to_string).
   void set_gt_kinds(std::unordered_map<std::uint16_t, io::SurfaceKind> kinds) { gt_kinds_ = std::move(kinds); }
+  /// The GT surfaces rendered with weak texture (io::is_weakly_textured): finish() then gives their
+  /// share of the area not in one label (MergeMetrics::weak_texture) and flags them among the
+  /// split surfaces.
+  void set_gt_weak_texture(std::unordered_set<std::uint16_t> ids) { gt_weak_texture_ = std::move(ids); }
 
  private:
   struct Sample {
@@ -137,6 +146,7 @@ class MergeEvaluator {
   std::unordered_map<std::uint16_t, std::uint16_t> groups_;  ///< GT id → GT plane group
   std::unordered_map<std::uint16_t, Plane3> gt_planes_;     ///< GT id → world plane
   std::unordered_map<std::uint16_t, io::SurfaceKind> gt_kinds_;  ///< GT id → kind
+  std::unordered_set<std::uint16_t> gt_weak_texture_;           ///< weakly textured GT ids
   std::vector<float> plane_errors_m_;  ///< ε of each measured cell
   std::vector<float> depth_sigmas_m_;  ///< σ_Z of the same cells
 };

@@ -205,6 +205,11 @@ TEST_F(BenchTest, MarkdownStatesThePapersFiguresNextToThisRun) {
   // The merge's GT breakdown by kind of surface, one row per kind of the rendered scene.
   EXPECT_CONTAINS(md, "| kind | GT surfaces | GT area % | in one label % | not in one label % |");
   EXPECT_CONTAINS(md, "| road |");
+  // The scene's weakly textured surfaces (glass windows at least) get a row of their own.
+  const auto& weak = (*json_)["replay"]["merge_vs_ground_truth"]["weak_texture"];
+  ASSERT_GT(weak["gt_surfaces"].get<std::size_t>(), 0u);
+  EXPECT_CONTAINS(md, "| *weakly textured (any kind, included above)* | " +
+                          std::to_string(weak["gt_surfaces"].get<std::size_t>()) + " |");
 }
 
 TEST_F(BenchTest, ThreadedRunScoresTheSameFramesTheSame) {

@@ -217,6 +217,48 @@ TEST(MergeMetrics, AreaNotInOneLabelIsBrokenDownByKindWithTheLargestSplitSurface
   EXPECT_TRUE(p.split_surfaces.empty());
 }
 
+TEST(MergeMetrics, WeaklyTexturedSurfacesGetTheirOwnShareOfTheAreaNotInOneLabel) {
+  // GT 1 (a weakly textured facade) lies 3 m² in label 10 and 1 m² in label 11 (75 %: split);
+  // GT 2 (a weakly textured window) 1 m² in label 20 (one label); GT 3 (a textured car) 2 m² in
+  // label 30 and 1 m² in label 31 (split). Total 8 m².
+  MergeEvaluator eval;
+  eval.set_gt_kinds({{1, io::SurfaceKind::kFacade}, {2, io::SurfaceKind::kWindow}, {3, io::SurfaceKind::kCar}});
+  eval.set_gt_weak_texture({1, 2});
+  cv::Mat labels, gt;
+  const auto frame = [&](std::uint16_t gt_left, std::uint16_t gt_right, float area_left, float area_right,
+                         std::uint32_t surface_left, std::uint32_t surface_right) {
+    halves(labels, gt, 0, 1, gt_left, gt_right);
+    map::MergeReport report;
+    report.cell_surfaces = {surface_left, surface_right};
+    eval.add_frame(labels, gt,
+                   std::vector<Planecell>{square(0, std::sqrt(area_left)), square(1, std::sqrt(area_right))}, report);
+  };
+  frame(1, 3, 3.0f, 2.0f, 10, 30);
+  frame(1, 3, 1.0f, 1.0f, 11, 31);
+  frame(2, 3, 1.0f, 0.0f, 20, 30);  // a zero-area car cell: adds nothing
+  const MergeMetrics m = eval.finish();
+  EXPECT_NEAR(m.area_one_label, 1.0 / 8.0, 1e-6);
+  EXPECT_EQ(m.weak_texture.kind, "weakly textured");
+  EXPECT_EQ(m.weak_texture.gt_surfaces, 2u);
+  EXPECT_NEAR(m.weak_texture.area, 5.0 / 8.0, 1e-6);
+  EXPECT_NEAR(m.weak_texture.one_label, 1.0 / 8.0, 1e-6);
+  EXPECT_NEAR(m.weak_texture.lost, 4.0 / 8.0, 1e-6);
+  ASSERT_EQ(m.split_surfaces.size(), 2u);
+  EXPECT_EQ(m.split_surfaces[0].gt, 1);
+  EXPECT_TRUE(m.split_surfaces[0].weak_texture);
+  EXPECT_EQ(m.split_surfaces[1].gt, 3);
+  EXPECT_FALSE(m.split_surfaces[1].weak_texture);
+  // Without texture ground truth no surface is weakly textured.
+  MergeEvaluator plain;
+  halves(labels, gt, 0, 1, 1, 2);
+  map::MergeReport report;
+  report.cell_surfaces = {10, 20};
+  plain.add_frame(labels, gt, std::vector<Planecell>{square(0, 1.0f), square(1, 1.0f)}, report);
+  const MergeMetrics p = plain.finish();
+  EXPECT_EQ(p.weak_texture.gt_surfaces, 0u);
+  EXPECT_NEAR(p.weak_texture.area, 0.0, 1e-12);
+}
+
 TEST(MergeMetrics, MixedAndRejectedCellsAreLeftOut) {
   MergeEvaluator eval;
   cv::Mat labels, gt;

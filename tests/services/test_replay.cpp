@@ -10,6 +10,7 @@
 #include "io/kitti_odometry.hpp"
 #include "io/map_store.hpp"
 #include "io/sequence_ground_truth.hpp"
+#include "io/synthetic/synthetic_world.hpp"
 #include "services/replay.hpp"
 #include "support/expect_error.hpp"
 #include "support/small_street.hpp"
@@ -82,6 +83,19 @@ TEST_F(ReplayTest, MapsEveryFrameAndStoresThem) {
   EXPECT_NEAR(kinds_area, 1.0, 1e-9);
   EXPECT_NEAR(kinds_lost, 1.0 - report.merge_metrics->area_one_label, 1e-9);
   ASSERT_EQ(json["merge_vs_ground_truth"]["by_kind"].size(), report.merge_metrics->by_kind.size());
+  // The scene's weakly textured surfaces (its glass windows at least) get their own share: some
+  // of the GT area, split into one label and not.
+  std::size_t weak_in_scene = 0;
+  for (const auto& surface : io::read_scene_surfaces(scratch_ / "seq" / "scene.yaml"))
+    weak_in_scene += io::is_weakly_textured(surface.texture) ? 1 : 0;
+  const auto& weak = report.merge_metrics->weak_texture;
+  EXPECT_GT(weak_in_scene, 0u);
+  EXPECT_LE(weak.gt_surfaces, weak_in_scene);
+  EXPECT_LE(weak.area, 1.0);
+  EXPECT_NEAR(weak.one_label + weak.lost, weak.area, 1e-12);
+  EXPECT_GE(weak.lost, 0.0);
+  EXPECT_NEAR(json["merge_vs_ground_truth"]["weak_texture"]["area"].get<double>(), weak.area, 1e-12);
+  EXPECT_EQ(json["merge_vs_ground_truth"]["weak_texture"]["gt_surfaces"].get<std::size_t>(), weak.gt_surfaces);
   ASSERT_EQ(report.stage_latency.size(), 6u);  // load, sgm, extract, transform, merge, store
   // One integrate() time per frame, each inside its frame's merge stage.
   ASSERT_EQ(report.merge_ms.size(), 4u);
