@@ -462,7 +462,10 @@ nlohmann::json to_json(const ReplayReport& r) {
       out["cell_planes_vs_ground_truth"] = {
           {"cells", m.plane_error_cells}, {"rms_distance_median_m", m.plane_error_median_m},
           {"rms_distance_p90_m", m.plane_error_p90_m}, {"depth_sigma_median_m", m.depth_sigma_median_m},
-          {"rms_distance_over_depth_sigma_median", m.plane_error_over_sigma_median}};
+          {"rms_distance_over_depth_sigma_median", m.plane_error_over_sigma_median},
+          {"weak_texture",
+           {{"cells", m.weak_plane_error_cells}, {"rms_distance_median_m", m.weak_plane_error_median_m},
+            {"rms_distance_over_depth_sigma_median", m.weak_plane_error_over_sigma_median}}}};
     }
   }
   if (r.map_completeness) {
@@ -532,6 +535,10 @@ std::string summary_text(const ReplayReport& r) {
       out << "  cell planes vs GT planes: RMS vertex distance median " << m.plane_error_median_m << " m, p90 "
           << m.plane_error_p90_m << " m; modelled depth noise sigma_Z median " << m.depth_sigma_median_m
           << " m (distance / sigma_Z median " << m.plane_error_over_sigma_median << ")\n";
+      if (m.weak_plane_error_cells > 0)
+        out << "  ... of the " << m.weak_plane_error_cells << " cells on weakly textured surfaces: median "
+            << m.weak_plane_error_median_m << " m (distance / sigma_Z median " << m.weak_plane_error_over_sigma_median
+            << ")\n";
       out.precision(1);
     }
   }

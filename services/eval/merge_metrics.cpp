@@ -51,6 +51,7 @@ void MergeEvaluator::add_frame(const cv::Mat& labels, const cv::Mat& gt_surface_
       // θ' with σ = 1 m: the RMS distance of the vertices to the GT plane, in metres.
       plane_errors_m_.push_back(static_cast<float>(map::plane_residual(plane->second, cells_world[i].vertices_m, 1.0)));
       depth_sigmas_m_.push_back(cells_world[i].depth_sigma_m);
+      plane_error_weak_.push_back(gt_weak_texture_.contains(best->first));
     }
   }
   add_map_changes(report);
@@ -85,10 +86,18 @@ MergeMetrics MergeEvaluator::finish() const {
   m.plane_error_median_m = lower_quantile(plane_errors_m_, 0.5);
   m.plane_error_p90_m = lower_quantile(plane_errors_m_, 0.9);
   m.depth_sigma_median_m = lower_quantile(depth_sigmas_m_, 0.5);
-  std::vector<float> ratios;
-  for (std::size_t i = 0; i < plane_errors_m_.size(); ++i)
-    if (depth_sigmas_m_[i] > 0.0f) ratios.push_back(plane_errors_m_[i] / depth_sigmas_m_[i]);
+  std::vector<float> ratios, weak_errors, weak_ratios;
+  for (std::size_t i = 0; i < plane_errors_m_.size(); ++i) {
+    const float ratio = depth_sigmas_m_[i] > 0.0f ? plane_errors_m_[i] / depth_sigmas_m_[i] : -1.0f;
+    if (ratio >= 0.0f) ratios.push_back(ratio);
+    if (!plane_error_weak_[i]) continue;
+    weak_errors.push_back(plane_errors_m_[i]);
+    if (ratio >= 0.0f) weak_ratios.push_back(ratio);
+  }
   m.plane_error_over_sigma_median = lower_quantile(std::move(ratios), 0.5);
+  m.weak_plane_error_cells = weak_errors.size();
+  m.weak_plane_error_median_m = lower_quantile(std::move(weak_errors), 0.5);
+  m.weak_plane_error_over_sigma_median = lower_quantile(std::move(weak_ratios), 0.5);
   m.mixed_cells = mixed_;
   std::map<std::uint16_t, std::map<std::uint32_t, double>> gt_label_area;
   std::map<std::uint32_t, std::map<std::uint16_t, double>> label_gt_area;

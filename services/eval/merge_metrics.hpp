@@ -59,6 +59,12 @@ struct MergeMetrics {
   double depth_sigma_median_m = 0.0;
   /// Median of ε / σ_Z over the measured cells with σ_Z > 0.
   double plane_error_over_sigma_median = 0.0;
+  /// The measured cells on weakly textured GT surfaces (MergeEvaluator::set_gt_weak_texture), their
+  /// median ε and median ε / σ_Z: how far stereo's error there exceeds the modelled σ_Z. 0 cells
+  /// without texture ground truth.
+  std::size_t weak_plane_error_cells = 0;
+  double weak_plane_error_median_m = 0.0;
+  double weak_plane_error_over_sigma_median = 0.0;
   // --- where the area not in one label lies (MergeEvaluator::set_gt_kinds) --------------------
   /// One kind of GT surface (the renderer's: facade, sidewalk, car, …; "unknown" without kinds).
   /// Shares are of the total GT area A = Σ_g A(g), so Σ_kinds lost = 1 − area_one_label.
@@ -148,6 +154,7 @@ class MergeEvaluator {
   std::unordered_map<std::uint16_t, io::SurfaceKind> gt_kinds_;  ///< GT id → kind
   std::unordered_set<std::uint16_t> gt_weak_texture_;           ///< weakly textured GT ids
   std::vector<float> plane_errors_m_;  ///< ε of each measured cell
+  std::vector<bool> plane_error_weak_;  ///< ... whether its GT surface is weakly textured
   std::vector<float> depth_sigmas_m_;  ///< σ_Z of the same cells
 };
 

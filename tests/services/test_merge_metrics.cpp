@@ -338,6 +338,31 @@ TEST(MergeMetrics, CellPlaneErrorIsTheRmsVertexDistanceToTheGtPlane) {
   EXPECT_NEAR(m.plane_error_over_sigma_median, 1.0 / 3.0, 1e-6);
 }
 
+TEST(MergeMetrics, CellPlaneErrorOnWeaklyTexturedSurfacesIsReportedApart) {
+  MergeEvaluator eval;
+  // GT 1 (weakly textured) and GT 2 (textured) both on z = 0.
+  eval.set_gt_surface_planes({{1, Plane3{Eigen::Vector3d::UnitZ(), 0.0}}, {2, Plane3{Eigen::Vector3d::UnitZ(), 0.0}}});
+  eval.set_gt_weak_texture({1});
+  cv::Mat labels, gt;
+  halves(labels, gt, 0, 1, 1, 2);
+  for (int i = 1; i <= 3; ++i) {
+    Planecell weak = square(0, 1.0f), textured = square(1, 1.0f);
+    for (auto& v : weak.vertices_m) v.z() = 0.1f * static_cast<float>(i);  // 10, 20, 30 cm off
+    for (auto& v : textured.vertices_m) v.z() = 0.01f;                     // 1 cm off
+    weak.depth_sigma_m = 0.1f;
+    textured.depth_sigma_m = 0.1f;
+    map::MergeReport report;
+    report.cell_surfaces = {10, 20};
+    eval.add_frame(labels, gt, std::vector<Planecell>{weak, textured}, report);
+  }
+  const MergeMetrics m = eval.finish();
+  ASSERT_EQ(m.plane_error_cells, 6u);
+  EXPECT_NEAR(m.plane_error_median_m, 0.01, 1e-6);  // sorted 1, 1, 1, 10, 20, 30 cm: [⌊0.5·5⌋] = 1 cm
+  ASSERT_EQ(m.weak_plane_error_cells, 3u);
+  EXPECT_NEAR(m.weak_plane_error_median_m, 0.2, 1e-6);
+  EXPECT_NEAR(m.weak_plane_error_over_sigma_median, 2.0, 1e-5);
+}
+
 TEST(MergeMetrics, TiltedCellPlaneErrorAndNoGtPlanesMeasureNothing) {
   cv::Mat labels, gt;
   halves(labels, gt, 0, 0, 2, 2);
@@ -357,6 +382,7 @@ TEST(MergeMetrics, TiltedCellPlaneErrorAndNoGtPlanesMeasureNothing) {
   MergeEvaluator without_planes;
   without_planes.add_frame(labels, gt, std::vector<Planecell>{tilted}, report);
   EXPECT_EQ(without_planes.finish().plane_error_cells, 0u);
+  EXPECT_EQ(eval.finish().weak_plane_error_cells, 0u);  // no texture ground truth
 }
 
 }  // namespace

@@ -96,6 +96,9 @@ TEST_F(ReplayTest, MapsEveryFrameAndStoresThem) {
   EXPECT_GE(weak.lost, 0.0);
   EXPECT_NEAR(json["merge_vs_ground_truth"]["weak_texture"]["area"].get<double>(), weak.area, 1e-12);
   EXPECT_EQ(json["merge_vs_ground_truth"]["weak_texture"]["gt_surfaces"].get<std::size_t>(), weak.gt_surfaces);
+  EXPECT_LE(report.merge_metrics->weak_plane_error_cells, report.merge_metrics->plane_error_cells);
+  EXPECT_EQ(json["cell_planes_vs_ground_truth"]["weak_texture"]["cells"].get<std::size_t>(),
+            report.merge_metrics->weak_plane_error_cells);
   ASSERT_EQ(report.stage_latency.size(), 6u);  // load, sgm, extract, transform, merge, store
   // One integrate() time per frame, each inside its frame's merge stage.
   ASSERT_EQ(report.merge_ms.size(), 4u);
