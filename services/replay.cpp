@@ -444,14 +444,14 @@ nlohmann::json to_json(const ReplayReport& r) {
         {"labels", m.labels}, {"area_in_dominant_label", m.area_in_dominant_label},
         {"area_one_label", m.area_one_label}, {"cross_merged_cells", m.cross_merged_cells},
         {"cross_merged_cells_between_planes", m.cross_merged_cells_between_planes}};
+    const auto share_json = [](const eval::MergeMetrics::KindShare& k) {
+      return nlohmann::json{{"kind", k.kind}, {"gt_surfaces", k.gt_surfaces}, {"area", k.area},
+                            {"area_one_label", k.one_label}, {"area_not_one_label", k.lost}};
+    };
     auto by_kind = nlohmann::json::array();
-    for (const auto& k : m.by_kind)
-      by_kind.push_back({{"kind", k.kind}, {"gt_surfaces", k.gt_surfaces}, {"area", k.area},
-                         {"area_one_label", k.one_label}, {"area_not_one_label", k.lost}});
+    for (const auto& k : m.by_kind) by_kind.push_back(share_json(k));
     out["merge_vs_ground_truth"]["by_kind"] = by_kind;
-    const auto& w = m.weak_texture;
-    out["merge_vs_ground_truth"]["weak_texture"] = {{"gt_surfaces", w.gt_surfaces}, {"area", w.area},
-                                                    {"area_one_label", w.one_label}, {"area_not_one_label", w.lost}};
+    out["merge_vs_ground_truth"]["weak_texture"] = share_json(m.weak_texture);
     auto split = nlohmann::json::array();
     for (const auto& g : m.split_surfaces)
       split.push_back({{"gt", g.gt}, {"kind", g.kind}, {"area_m2", g.area_m2}, {"dominant_share", g.dominant_share},

@@ -318,12 +318,13 @@ std::string format_markdown(const BenchReport& r) {
        << again;
     if (!m.by_kind.empty()) {
       std::vector<std::vector<std::string>> rows;
-      for (const auto& k : m.by_kind)
-        rows.push_back({k.kind, std::to_string(k.gt_surfaces), number(100 * k.area, 1), number(100 * k.one_label, 1),
-                        number(100 * k.lost, 1)});
+      const auto share_row = [](const std::string& name, const eval::MergeMetrics::KindShare& k) {
+        return std::vector<std::string>{name, std::to_string(k.gt_surfaces), number(100 * k.area, 1),
+                                        number(100 * k.one_label, 1), number(100 * k.lost, 1)};
+      };
+      for (const auto& k : m.by_kind) rows.push_back(share_row(k.kind, k));
       if (const auto& w = m.weak_texture; w.gt_surfaces > 0)
-        rows.push_back({"*" + w.kind + " (any kind, included above)*", std::to_string(w.gt_surfaces),
-                        number(100 * w.area, 1), number(100 * w.one_label, 1), number(100 * w.lost, 1)});
+        rows.push_back(share_row("*" + w.kind + " (any kind, included above)*", w));
       md << "\nBy kind of GT surface (% of all GT area; the kinds' last column adds up to what the one-label "
             "figure misses):\n\n"
          << report::table({"kind", "GT surfaces", "GT area %", "in one label %", "not in one label %"}, rows)

@@ -88,11 +88,10 @@ MergeMetrics MergeEvaluator::finish() const {
   m.depth_sigma_median_m = lower_quantile(depth_sigmas_m_, 0.5);
   std::vector<float> ratios, weak_errors, weak_ratios;
   for (std::size_t i = 0; i < plane_errors_m_.size(); ++i) {
-    const float ratio = depth_sigmas_m_[i] > 0.0f ? plane_errors_m_[i] / depth_sigmas_m_[i] : -1.0f;
-    if (ratio >= 0.0f) ratios.push_back(ratio);
-    if (!plane_error_weak_[i]) continue;
-    weak_errors.push_back(plane_errors_m_[i]);
-    if (ratio >= 0.0f) weak_ratios.push_back(ratio);
+    if (plane_error_weak_[i]) weak_errors.push_back(plane_errors_m_[i]);
+    if (!(depth_sigmas_m_[i] > 0.0f)) continue;
+    ratios.push_back(plane_errors_m_[i] / depth_sigmas_m_[i]);
+    if (plane_error_weak_[i]) weak_ratios.push_back(ratios.back());
   }
   m.plane_error_over_sigma_median = lower_quantile(std::move(ratios), 0.5);
   m.weak_plane_error_cells = weak_errors.size();
@@ -131,28 +130,29 @@ MergeMetrics MergeEvaluator::finish() const {
     if (one) one_label += area;
     const auto kind_it = gt_kinds_.find(gt);
     const std::string kind = kind_it == gt_kinds_.end() ? "unknown" : io::to_string(kind_it->second);
-    MergeMetrics::KindShare& share = kinds.try_emplace(kind, MergeMetrics::KindShare{kind}).first->second;
+    const auto add_to = [&](MergeMetrics::KindShare& share) {
+      ++share.gt_surfaces;
+      share.area += area;
+      if (one) share.one_label += area;
+    };
+    add_to(kinds.try_emplace(kind, MergeMetrics::KindShare{kind}).first->second);
     const bool weak = gt_weak_texture_.contains(gt);
-    for (MergeMetrics::KindShare* s : {&share, weak ? &m.weak_texture : nullptr}) {
-      if (!s) continue;
-      ++s->gt_surfaces;
-      s->area += area;
-      if (one) s->one_label += area;
-    }
+    if (weak) add_to(m.weak_texture);
     if (!one && area > 0.0) m.split_surfaces.push_back({gt, kind, area, best / area, per_label.size(), weak});
   }
   if (total > 0.0) {
     m.area_in_dominant_label = dominant / total;
     m.area_one_label = one_label / total;
-    for (auto& [kind, share] : kinds) {
+    const auto as_shares = [total](MergeMetrics::KindShare& share) {
       share.area /= total;
       share.one_label /= total;
       share.lost = share.area - share.one_label;
+    };
+    for (auto& [kind, share] : kinds) {
+      as_shares(share);
       m.by_kind.push_back(share);
     }
-    m.weak_texture.area /= total;
-    m.weak_texture.one_label /= total;
-    m.weak_texture.lost = m.weak_texture.area - m.weak_texture.one_label;
+    as_shares(m.weak_texture);
   }
   std::stable_sort(m.by_kind.begin(), m.by_kind.end(), [](const auto& a, const auto& b) { return a.lost > b.lost; });
   std::stable_sort(m.split_surfaces.begin(), m.split_surfaces.end(),

@@ -30,6 +30,26 @@ void halves(cv::Mat& labels, cv::Mat& gt, int left, int right, std::uint16_t gt_
     }
 }
 
+/// A unit square cell (extraction id `id`) lifted to z = z_m, with depth noise σ_Z = sigma_m.
+Planecell lifted_square(std::uint32_t id, float z_m, float sigma_m) {
+  Planecell c = square(id, 1.0f);
+  for (auto& v : c.vertices_m) v.z() = z_m;
+  c.depth_sigma_m = sigma_m;
+  return c;
+}
+
+/// One frame of two unit squares on GT 1 and GT 2 in labels 10 and 20, evaluated without any
+/// scene ground truth (kinds, textures, planes).
+MergeMetrics plain_evaluation() {
+  MergeEvaluator plain;
+  cv::Mat labels, gt;
+  halves(labels, gt, 0, 1, 1, 2);
+  map::MergeReport report;
+  report.cell_surfaces = {10, 20};
+  plain.add_frame(labels, gt, std::vector<Planecell>{square(0, 1.0f), square(1, 1.0f)}, report);
+  return plain.finish();
+}
+
 /// A 1 m × 1 m rectangle of the plane z = z0 (normal +z), x ∈ [x0, x0 + 1], y ∈ [0, 1].
 io::SyntheticSurface tile_at(std::uint16_t id, double x0, double z0) {
   return io::make_rectangle(id, io::SurfaceKind::kBox, {x0, 0.0, z0}, Eigen::Vector3d::UnitX(),
@@ -204,12 +224,7 @@ TEST(MergeMetrics, AreaNotInOneLabelIsBrokenDownByKindWithTheLargestSplitSurface
   EXPECT_EQ(m.split_surfaces[1].gt, 3);
   EXPECT_NEAR(m.split_surfaces[1].dominant_share, 0.75, 1e-6);
   // Without kinds every GT surface is of kind "unknown".
-  MergeEvaluator plain;
-  halves(labels, gt, 0, 1, 1, 2);
-  map::MergeReport report;
-  report.cell_surfaces = {10, 20};
-  plain.add_frame(labels, gt, std::vector<Planecell>{square(0, 1.0f), square(1, 1.0f)}, report);
-  const MergeMetrics p = plain.finish();
+  const MergeMetrics p = plain_evaluation();
   ASSERT_EQ(p.by_kind.size(), 1u);
   EXPECT_EQ(p.by_kind[0].kind, "unknown");
   EXPECT_EQ(p.by_kind[0].gt_surfaces, 2u);
@@ -249,12 +264,7 @@ TEST(MergeMetrics, WeaklyTexturedSurfacesGetTheirOwnShareOfTheAreaNotInOneLabel)
   EXPECT_EQ(m.split_surfaces[1].gt, 3);
   EXPECT_FALSE(m.split_surfaces[1].weak_texture);
   // Without texture ground truth no surface is weakly textured.
-  MergeEvaluator plain;
-  halves(labels, gt, 0, 1, 1, 2);
-  map::MergeReport report;
-  report.cell_surfaces = {10, 20};
-  plain.add_frame(labels, gt, std::vector<Planecell>{square(0, 1.0f), square(1, 1.0f)}, report);
-  const MergeMetrics p = plain.finish();
+  const MergeMetrics p = plain_evaluation();
   EXPECT_EQ(p.weak_texture.gt_surfaces, 0u);
   EXPECT_NEAR(p.weak_texture.area, 0.0, 1e-12);
 }
@@ -318,14 +328,12 @@ TEST(MergeMetrics, CellPlaneErrorIsTheRmsVertexDistanceToTheGtPlane) {
   cv::Mat labels, gt;
   halves(labels, gt, 0, 1, 1, 3);
   for (int i = 0; i <= 10; ++i) {
-    Planecell lifted = square(0, 1.0f);  // on GT 1's plane, lifted by 1 cm · i
-    for (auto& v : lifted.vertices_m) v.z() = 0.01f * static_cast<float>(i);
-    lifted.depth_sigma_m = 0.1f + 0.01f * static_cast<float>(i);
-    Planecell other = square(1, 1.0f);
-    other.depth_sigma_m = 0.5f;
+    // On GT 1's plane, lifted by 1 cm · i; the other cell lies on GT 3 (no plane known).
+    const float lift = 0.01f * static_cast<float>(i);
     map::MergeReport report;
     report.cell_surfaces = {10, 20};
-    eval.add_frame(labels, gt, std::vector<Planecell>{lifted, other}, report);
+    eval.add_frame(labels, gt, std::vector<Planecell>{lifted_square(0, lift, 0.1f + lift), lifted_square(1, 0.0f, 0.5f)},
+                   report);
   }
   const MergeMetrics m = eval.finish();
   EXPECT_EQ(m.cells, 22u);
@@ -346,14 +354,13 @@ TEST(MergeMetrics, CellPlaneErrorOnWeaklyTexturedSurfacesIsReportedApart) {
   cv::Mat labels, gt;
   halves(labels, gt, 0, 1, 1, 2);
   for (int i = 1; i <= 3; ++i) {
-    Planecell weak = square(0, 1.0f), textured = square(1, 1.0f);
-    for (auto& v : weak.vertices_m) v.z() = 0.1f * static_cast<float>(i);  // 10, 20, 30 cm off
-    for (auto& v : textured.vertices_m) v.z() = 0.01f;                     // 1 cm off
-    weak.depth_sigma_m = 0.1f;
-    textured.depth_sigma_m = 0.1f;
+    // The weak cell 10, 20, 30 cm off its plane, the textured one 1 cm; both σ_Z = 10 cm.
     map::MergeReport report;
     report.cell_surfaces = {10, 20};
-    eval.add_frame(labels, gt, std::vector<Planecell>{weak, textured}, report);
+    eval.add_frame(labels, gt,
+                   std::vector<Planecell>{lifted_square(0, 0.1f * static_cast<float>(i), 0.1f),
+                                          lifted_square(1, 0.01f, 0.1f)},
+                   report);
   }
   const MergeMetrics m = eval.finish();
   ASSERT_EQ(m.plane_error_cells, 6u);
