@@ -463,9 +463,13 @@ nlohmann::json to_json(const ReplayReport& r) {
           {"cells", m.plane_error_cells}, {"rms_distance_median_m", m.plane_error_median_m},
           {"rms_distance_p90_m", m.plane_error_p90_m}, {"depth_sigma_median_m", m.depth_sigma_median_m},
           {"rms_distance_over_depth_sigma_median", m.plane_error_over_sigma_median},
+          {"normal_angle_median_deg", m.normal_error_median_deg},
+          {"centroid_distance_median_m", m.centroid_offset_median_m},
           {"weak_texture",
            {{"cells", m.weak_plane_error_cells}, {"rms_distance_median_m", m.weak_plane_error_median_m},
-            {"rms_distance_over_depth_sigma_median", m.weak_plane_error_over_sigma_median}}}};
+            {"rms_distance_over_depth_sigma_median", m.weak_plane_error_over_sigma_median},
+            {"normal_angle_median_deg", m.weak_normal_error_median_deg},
+            {"centroid_distance_median_m", m.weak_centroid_offset_median_m}}}};
     }
   }
   if (r.map_completeness) {
@@ -534,11 +538,13 @@ std::string summary_text(const ReplayReport& r) {
       out.precision(3);
       out << "  cell planes vs GT planes: RMS vertex distance median " << m.plane_error_median_m << " m, p90 "
           << m.plane_error_p90_m << " m; modelled depth noise sigma_Z median " << m.depth_sigma_median_m
-          << " m (distance / sigma_Z median " << m.plane_error_over_sigma_median << ")\n";
+          << " m (distance / sigma_Z median " << m.plane_error_over_sigma_median << "); normal off by "
+          << m.normal_error_median_deg << " deg, centroid " << m.centroid_offset_median_m << " m (medians)\n";
       if (m.weak_plane_error_cells > 0)
         out << "  ... of the " << m.weak_plane_error_cells << " cells on weakly textured surfaces: median "
             << m.weak_plane_error_median_m << " m (distance / sigma_Z median " << m.weak_plane_error_over_sigma_median
-            << ")\n";
+            << "); normal off by " << m.weak_normal_error_median_deg << " deg, centroid "
+            << m.weak_centroid_offset_median_m << " m\n";
       out.precision(1);
     }
   }

@@ -52,6 +52,10 @@ void MergeEvaluator::add_frame(const cv::Mat& labels, const cv::Mat& gt_surface_
       plane_errors_m_.push_back(static_cast<float>(map::plane_residual(plane->second, cells_world[i].vertices_m, 1.0)));
       depth_sigmas_m_.push_back(cells_world[i].depth_sigma_m);
       plane_error_weak_.push_back(gt_weak_texture_.contains(best->first));
+      const double cos_angle = std::min(1.0, std::abs(plane->second.normal.dot(cells_world[i].plane.normal)));
+      normal_errors_deg_.push_back(static_cast<float>(std::acos(cos_angle) * 180.0 / std::numbers::pi));
+      centroid_offsets_m_.push_back(static_cast<float>(
+          std::abs(plane->second.signed_distance(map::vertex_centroid(cells_world[i].vertices_m)))));
     }
   }
   add_map_changes(report);
@@ -86,9 +90,15 @@ MergeMetrics MergeEvaluator::finish() const {
   m.plane_error_median_m = lower_quantile(plane_errors_m_, 0.5);
   m.plane_error_p90_m = lower_quantile(plane_errors_m_, 0.9);
   m.depth_sigma_median_m = lower_quantile(depth_sigmas_m_, 0.5);
-  std::vector<float> ratios, weak_errors, weak_ratios;
+  m.normal_error_median_deg = lower_quantile(normal_errors_deg_, 0.5);
+  m.centroid_offset_median_m = lower_quantile(centroid_offsets_m_, 0.5);
+  std::vector<float> ratios, weak_errors, weak_ratios, weak_angles, weak_offsets;
   for (std::size_t i = 0; i < plane_errors_m_.size(); ++i) {
-    if (plane_error_weak_[i]) weak_errors.push_back(plane_errors_m_[i]);
+    if (plane_error_weak_[i]) {
+      weak_errors.push_back(plane_errors_m_[i]);
+      weak_angles.push_back(normal_errors_deg_[i]);
+      weak_offsets.push_back(centroid_offsets_m_[i]);
+    }
     if (!(depth_sigmas_m_[i] > 0.0f)) continue;
     ratios.push_back(plane_errors_m_[i] / depth_sigmas_m_[i]);
     if (plane_error_weak_[i]) weak_ratios.push_back(ratios.back());
@@ -97,6 +107,8 @@ MergeMetrics MergeEvaluator::finish() const {
   m.weak_plane_error_cells = weak_errors.size();
   m.weak_plane_error_median_m = lower_quantile(std::move(weak_errors), 0.5);
   m.weak_plane_error_over_sigma_median = lower_quantile(std::move(weak_ratios), 0.5);
+  m.weak_normal_error_median_deg = lower_quantile(std::move(weak_angles), 0.5);
+  m.weak_centroid_offset_median_m = lower_quantile(std::move(weak_offsets), 0.5);
   m.mixed_cells = mixed_;
   std::map<std::uint16_t, std::map<std::uint32_t, double>> gt_label_area;
   std::map<std::uint32_t, std::map<std::uint16_t, double>> label_gt_area;

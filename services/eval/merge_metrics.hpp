@@ -65,6 +65,15 @@ struct MergeMetrics {
   std::size_t weak_plane_error_cells = 0;
   double weak_plane_error_median_m = 0.0;
   double weak_plane_error_over_sigma_median = 0.0;
+  /// ε split into the cell plane's orientation and position, medians over the same cells (all,
+  /// and those on weakly textured GT surfaces): the normal angle α = acos|n·n_g| (deg) and the
+  /// centroid offset o = |n_g·c + e_g| (m), c the cell's vertex centroid. A cell tilted by α
+  /// about its centroid has ε ≈ o plus α times its vertices' spread: a large α with a small o is
+  /// a plane in the right place with the wrong orientation.
+  double normal_error_median_deg = 0.0;
+  double centroid_offset_median_m = 0.0;
+  double weak_normal_error_median_deg = 0.0;
+  double weak_centroid_offset_median_m = 0.0;
   // --- where the area not in one label lies (MergeEvaluator::set_gt_kinds) --------------------
   /// One kind of GT surface (the renderer's: facade, sidewalk, car, …; "unknown" without kinds).
   /// Shares are of the total GT area A = Σ_g A(g), so Σ_kinds lost = 1 − area_one_label.
@@ -156,6 +165,8 @@ class MergeEvaluator {
   std::vector<float> plane_errors_m_;  ///< ε of each measured cell
   std::vector<bool> plane_error_weak_;  ///< ... whether its GT surface is weakly textured
   std::vector<float> depth_sigmas_m_;  ///< σ_Z of the same cells
+  std::vector<float> normal_errors_deg_;   ///< α of the same cells
+  std::vector<float> centroid_offsets_m_;  ///< o of the same cells
 };
 
 }  // namespace planecell::services::eval

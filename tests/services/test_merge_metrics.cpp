@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <numbers>
 
 #include "core/error.hpp"
 #include "services/eval/merge_metrics.hpp"
@@ -368,6 +369,49 @@ TEST(MergeMetrics, CellPlaneErrorOnWeaklyTexturedSurfacesIsReportedApart) {
   ASSERT_EQ(m.weak_plane_error_cells, 3u);
   EXPECT_NEAR(m.weak_plane_error_median_m, 0.2, 1e-6);
   EXPECT_NEAR(m.weak_plane_error_over_sigma_median, 2.0, 1e-5);
+}
+
+/// A unit square on the plane through (0.5, 0.5, z_m) tilted by `tilt_deg` about the x axis:
+/// normal (0, −sin θ, cos θ), its y = 0 edge h = tan(θ)/2 below z_m and its y = 1 edge h above.
+Planecell tilted_square(std::uint32_t id, float z_m, double tilt_deg) {
+  Planecell c = square(id, 1.0f);
+  const double theta = tilt_deg * std::numbers::pi / 180.0;
+  const auto h = static_cast<float>(0.5 * std::tan(theta));
+  for (auto& v : c.vertices_m) v.z() = z_m + (v.y() > 0.5f ? h : -h);
+  c.plane.normal = Eigen::Vector3d(0.0, -std::sin(theta), std::cos(theta));
+  c.plane.offset = -c.plane.normal.dot(Eigen::Vector3d(0.5, 0.5, z_m));
+  c.depth_sigma_m = 0.1f;
+  return c;
+}
+
+TEST(MergeMetrics, CellPlaneErrorSplitsIntoNormalAngleAndCentroidOffset) {
+  MergeEvaluator eval;
+  // GT 1 (weakly textured) and GT 2 (textured), both the plane z = 0.
+  eval.set_gt_surface_planes({{1, Plane3{Eigen::Vector3d::UnitZ(), 0.0}}, {2, Plane3{Eigen::Vector3d::UnitZ(), 0.0}}});
+  eval.set_gt_weak_texture({1});
+  cv::Mat labels, gt;
+  halves(labels, gt, 0, 1, 1, 2);
+  for (int i = 1; i <= 3; ++i) {
+    // The weak cell tilted by 10°, 20°, 30° about a centroid 2 cm above its plane; the textured
+    // cell flat, 1, 2, 3 cm above its plane.
+    map::MergeReport report;
+    report.cell_surfaces = {10, 20};
+    eval.add_frame(labels, gt,
+                   std::vector<Planecell>{tilted_square(0, 0.02f, 10.0 * i),
+                                          tilted_square(1, 0.01f * static_cast<float>(i), 0.0)},
+                   report);
+  }
+  const MergeMetrics m = eval.finish();
+  ASSERT_EQ(m.plane_error_cells, 6u);
+  // All six: angles sorted 0, 0, 0, 10, 20, 30° and offsets 1, 2, 2, 2, 2, 3 cm: [⌊0.5·5⌋] = [2].
+  EXPECT_NEAR(m.normal_error_median_deg, 0.0, 1e-3);
+  EXPECT_NEAR(m.centroid_offset_median_m, 0.02, 1e-6);
+  ASSERT_EQ(m.weak_plane_error_cells, 3u);
+  EXPECT_NEAR(m.weak_normal_error_median_deg, 20.0, 1e-3);
+  EXPECT_NEAR(m.weak_centroid_offset_median_m, 0.02, 1e-6);
+  // The tilt shows in ε, not in the offset: ε = √(o² + h²) with h = tan(20°)/2 = 0.182 m.
+  const double h = 0.5 * std::tan(20.0 * std::numbers::pi / 180.0);
+  EXPECT_NEAR(m.weak_plane_error_median_m, std::sqrt(0.02 * 0.02 + h * h), 1e-5);
 }
 
 TEST(MergeMetrics, TiltedCellPlaneErrorAndNoGtPlanesMeasureNothing) {

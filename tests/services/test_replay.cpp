@@ -99,6 +99,18 @@ TEST_F(ReplayTest, MapsEveryFrameAndStoresThem) {
   EXPECT_LE(report.merge_metrics->weak_plane_error_cells, report.merge_metrics->plane_error_cells);
   EXPECT_EQ(json["cell_planes_vs_ground_truth"]["weak_texture"]["cells"].get<std::size_t>(),
             report.merge_metrics->weak_plane_error_cells);
+  // The plane error split: a cell's centroid offset is the mean of its vertices' signed distances,
+  // so it is at most their RMS, cell by cell and hence in the median; angles lie in [0°, 90°].
+  const auto& metrics = *report.merge_metrics;
+  EXPECT_LE(metrics.centroid_offset_median_m, metrics.plane_error_median_m + 1e-6);
+  EXPECT_LE(metrics.weak_centroid_offset_median_m, metrics.weak_plane_error_median_m + 1e-6);
+  EXPECT_GE(metrics.normal_error_median_deg, 0.0);
+  EXPECT_LE(metrics.normal_error_median_deg, 90.0);
+  EXPECT_LE(metrics.weak_normal_error_median_deg, 90.0);
+  EXPECT_NEAR(json["cell_planes_vs_ground_truth"]["normal_angle_median_deg"].get<double>(),
+              metrics.normal_error_median_deg, 1e-9);
+  EXPECT_NEAR(json["cell_planes_vs_ground_truth"]["weak_texture"]["centroid_distance_median_m"].get<double>(),
+              metrics.weak_centroid_offset_median_m, 1e-9);
   ASSERT_EQ(report.stage_latency.size(), 6u);  // load, sgm, extract, transform, merge, store
   // One integrate() time per frame, each inside its frame's merge stage.
   ASSERT_EQ(report.merge_ms.size(), 4u);
