@@ -17,6 +17,21 @@ Plane3 plane_from_disparity(const DisparityPlane& p, const StereoCamera& cam) {
   return out;
 }
 
+double normal_sigma_rad(const DisparityPlane& plane, const Eigen::Matrix2d& cov_ab,
+                        const Eigen::Vector2d& centroid_px, const StereoCamera& camera) {
+  const Eigen::Vector3d n0 = plane_from_disparity(plane, camera).normal;
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> axes(cov_ab);
+  double variance = 0.0;
+  for (int k = 0; k < 2; ++k) {
+    const Eigen::Vector2d step = axes.eigenvectors().col(k) * std::sqrt(std::max(0.0, axes.eigenvalues()(k)));
+    const DisparityPlane moved{plane.a + step.x(), plane.b + step.y(), plane.c - step.dot(centroid_px)};
+    const double cos_angle = std::min(1.0, std::abs(n0.dot(plane_from_disparity(moved, camera).normal)));
+    const double angle = std::acos(cos_angle);
+    variance += angle * angle;
+  }
+  return std::sqrt(variance);
+}
+
 DisparityPlane disparity_from_plane(const Plane3& plane, const StereoCamera& cam) {
   const double e = plane.offset;
   if (std::abs(e) < 1e-12)

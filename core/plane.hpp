@@ -34,6 +34,17 @@ Plane3 plane_from_disparity(const DisparityPlane& plane, const StereoCamera& cam
 /// Throws InputError when |e| is (numerically) zero.
 DisparityPlane disparity_from_plane(const Plane3& plane, const StereoCamera& camera);
 
+/// 1-σ angle (rad) of the 3D normal of a least-squares disparity plane, from the covariance
+/// cov_ab of its slopes (a, b): for a fit on n pixels with residual variance s² and centred image
+/// scatter C = Σ (p − p̄)(p − p̄)ᵀ, cov_ab = s²·C⁻¹, and c moves with them so that the disparity
+/// at the pixels' centroid p̄ stays (its own error, s²/n, shifts the plane but hardly turns it).
+/// Along each principal axis e_k of cov_ab (variance λ_k) the slopes move by √λ_k·e_k; the angle
+/// α_k between plane_from_disparity of the moved and the fitted plane adds in quadrature:
+///   σ_θ = √(α_1² + α_2²).
+/// A wide, near cell turns little; a small or far one (little disparity across it) turns a lot.
+double normal_sigma_rad(const DisparityPlane& plane, const Eigen::Matrix2d& cov_ab,
+                        const Eigen::Vector2d& centroid_px, const StereoCamera& camera);
+
 /// Fits n·X + e = 0 to points by least squares (smallest eigenvector of the scatter matrix).
 Plane3 fit_plane(const Eigen::Ref<const Eigen::Matrix3Xd>& points);
 

@@ -34,6 +34,12 @@ struct Planecell {
   /// 1-σ depth uncertainty of the plane at the polygon's centroid, σ_Z = Z²·σ_d / (f_x·B) (m), with
   /// σ_d = t/√3 the spread of inliers uniform within the RANSAC threshold ±t; 0 = unknown.
   float depth_sigma_m = 0.0f;
+  /// 1-σ angle of the plane's normal (rad) from its least-squares fit (normal_sigma_rad, with the
+  /// inliers' residual variance s² = Σr²/(n − 3) and their image scatter); 0 = unknown. It assumes
+  /// independent pixel errors: SGM's aggregation correlates them, so the actual angle error is
+  /// several times larger (MapConfig::normal_sigma_scale), but it ranks cells by how well their
+  /// orientation is known.
+  float normal_sigma_rad = 0.0f;
   std::uint32_t surface = kNoSurface;  ///< CRF surface label
 };
 

@@ -43,6 +43,14 @@ struct MapConfig {
   /// be off (LabelState::range_sigma_m). false: by σ_Z. Plane fits (weights area / σ_Z²),
   /// coverage and the stored cell keep σ_Z.
   bool normal_depth_noise = true;
+  /// The range also widens by a new cell's uncertain orientation: its fit's normal σ_θ
+  /// (Planecell::normal_sigma_rad) times this scale κ, since SGM's aggregation correlates the
+  /// pixels' disparity errors that the fit takes as independent. The angle range grows by k·κ·σ_θ
+  /// (up to max_noisy_normal_angle_deg) and the distance range by the tilt's reach over the
+  /// cell's extent, k·κ·σ_θ·r (r the RMS in-plane distance of its vertices from their centroid,
+  /// over √2). A label's κσ_θ combines its members' as 1/√Σ(κσ_θ)⁻²; 0 = off.
+  double normal_sigma_scale = 0.0;
+  double max_noisy_normal_angle_deg = 45.0;  ///< cap of the angle range widened by σ_θ
   /// The reverse test (the better-informed label on the other's plane) applies when the other
   /// holds at least this share of its information (comparable labels are tested both ways).
   double mutual_information_fraction = 0.25;
@@ -220,6 +228,8 @@ void visit_fields(MapConfig& c, Visitor&& visit) {
   visit("residual_scale_m", c.residual_scale_m);
   visit("depth_sigma_factor", c.depth_sigma_factor);
   visit("normal_depth_noise", c.normal_depth_noise);
+  visit("normal_sigma_scale", c.normal_sigma_scale);
+  visit("max_noisy_normal_angle_deg", c.max_noisy_normal_angle_deg);
   visit("mutual_information_fraction", c.mutual_information_fraction);
   visit("mature_cells", c.mature_cells);
   visit("neighbour_gap_m", c.neighbour_gap_m);

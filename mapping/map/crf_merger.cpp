@@ -195,7 +195,8 @@ double normal_depth_sigma_m(const Planecell& cell, const Eigen::Vector3d& camera
   return sigma_z * std::min(1.0, std::abs(cell.plane.signed_distance(camera_centre)) / range);
 }
 
-LabelState state_of_cell(const Planecell& cell, double area_m2, double range_sigma_m, double sigma_floor_m) {
+LabelState state_of_cell(const Planecell& cell, double area_m2, double range_sigma_m, double sigma_floor_m,
+                         double tilt_scale) {
   const double sigma = std::max(static_cast<double>(cell.depth_sigma_m), sigma_floor_m);
   const double range_sigma = std::max(range_sigma_m, sigma_floor_m);
   LabelState s;
@@ -207,6 +208,7 @@ LabelState state_of_cell(const Planecell& cell, double area_m2, double range_sig
   s.area_m2 = area_m2;
   s.observed_area_m2 = area_m2;
   s.cells = 1;
+  s.tilt_sigma_rad = tilt_scale * static_cast<double>(cell.normal_sigma_rad);
   return s;
 }
 
@@ -225,6 +227,10 @@ void fold_label(LabelState& into, const LabelState& from) {
   };
   into.range_information = range_information(into) + range_information(from);
   into.moments.add(from.moments);
+  into.tilt_sigma_rad = into.tilt_sigma_rad > 0.0 && from.tilt_sigma_rad > 0.0
+                            ? 1.0 / std::sqrt(1.0 / (into.tilt_sigma_rad * into.tilt_sigma_rad) +
+                                              1.0 / (from.tilt_sigma_rad * from.tilt_sigma_rad))
+                            : 0.0;
   // Refit only when the vertices span a plane (two non-negligible scatter eigenvalues).
   if (into.moments.weight > 0.0) {
     const Eigen::Vector3d mean = into.moments.sum / into.moments.weight;
@@ -242,6 +248,20 @@ CrfMerger::CrfMerger(const MapConfig& config) : config_(config) {
                       std::to_string(config.max_normal_angle_deg));
 }
 
+namespace {
+
+/// RMS in-plane distance of the moments' points from their mean, over √2: the RMS distance
+/// along the normal that tilting their plane by 1 rad about a random in-plane axis through the
+/// mean moves them, √(tr S / 2) with S the weighted scatter (its out-of-plane eigenvalue ≈ 0).
+double in_plane_spread_m(const PlaneMoments& moments) {
+  if (!(moments.weight > 0.0)) return 0.0;
+  const Eigen::Vector3d mean = moments.sum / moments.weight;
+  const double trace = moments.sum_outer.trace() / moments.weight - mean.squaredNorm();
+  return std::sqrt(std::max(0.0, trace) / 2.0);
+}
+
+}  // namespace
+
 EdgeEvaluation CrfMerger::evaluate(const MergeUnit& a, const LabelState& label_a,
                                    const MergeUnit& b, const LabelState& label_b,
                                    double boundary_m) const {
@@ -255,13 +275,22 @@ EdgeEvaluation CrfMerger::evaluate(const MergeUnit& a, const LabelState& label_a
   const LabelState& hi = a_is_hi ? label_a : label_b;
   const LabelState& lo = a_is_hi ? label_b : label_a;
   const double k = config_.depth_sigma_factor;
+  constexpr double kDeg = 180.0 / std::numbers::pi;
+  // A tilt widens the range by at most max_noisy_normal_angle_deg in all.
+  auto with_tilt = [&](double angle_deg, double tilt_rad) {
+    return tilt_rad > 0.0 ? std::max(angle_deg, std::min(angle_deg + k * tilt_rad * kDeg,
+                                                         config_.max_noisy_normal_angle_deg))
+                          : angle_deg;
+  };
   auto distance_tolerance = [&](const LabelState& s) {
-    return std::max(config_.max_plane_distance_m, k * s.range_sigma_m());
+    const double depth = k * s.range_sigma_m();
+    const double tilt = s.tilt_sigma_rad > 0.0 ? k * s.tilt_sigma_rad * in_plane_spread_m(s.moments) : 0.0;
+    return std::max(config_.max_plane_distance_m, std::hypot(depth, tilt));
   };
   auto angle_tolerance = [&](const LabelState& s) {
     const double extent_m = std::sqrt(std::max(s.observed_area_m2, 1e-6));
-    const double widen = std::atan(k * s.range_sigma_m() / extent_m) * 180.0 / std::numbers::pi;
-    return config_.max_normal_angle_deg + std::min(widen, config_.max_normal_angle_deg);
+    const double widen = std::atan(k * s.range_sigma_m() / extent_m) * kDeg;
+    return with_tilt(config_.max_normal_angle_deg + std::min(widen, config_.max_normal_angle_deg), s.tilt_sigma_rad);
   };
   ev.distance_m = lo.moments.rms_distance_m(hi.plane);
   const auto mature = static_cast<std::uint32_t>(std::max(config_.mature_cells, 1));
@@ -272,7 +301,8 @@ EdgeEvaluation CrfMerger::evaluate(const MergeUnit& a, const LabelState& label_a
     const Eigen::Vector3d m = 0.5 * (vertex_centroid(va) + vertex_centroid(vb));
     const double sign = hi.plane.normal.dot(lo.plane.normal) < 0.0 ? -1.0 : 1.0;
     const double step_m = std::abs(hi.plane.signed_distance(m) - sign * lo.plane.signed_distance(m));
-    in_range = step_m <= config_.max_plane_distance_m && ev.angle_deg <= config_.max_normal_angle_deg;
+    in_range = step_m <= config_.max_plane_distance_m &&
+               ev.angle_deg <= with_tilt(config_.max_normal_angle_deg, std::hypot(lo.tilt_sigma_rad, hi.tilt_sigma_rad));
   } else {
     in_range = ev.distance_m <= distance_tolerance(lo) && ev.angle_deg <= angle_tolerance(lo);
     if (lo.moments.weight >= config_.mutual_information_fraction * hi.moments.weight)

@@ -96,6 +96,9 @@ struct LabelState {
   /// Σ area_i / ρ_i² over the members, ρ_i the noise the variation range is widened by (a new
   /// cell's noise along its plane normal, MapConfig::normal_depth_noise); 0 = moments.weight.
   double range_information = 0.0;
+  /// Angular noise of the label's normal (rad): a new cell's κ·σ_θ (MapConfig::normal_sigma_scale),
+  /// members combined as 1/√Σ σ⁻²; 0 = exact (stored surfaces, cells without σ_θ).
+  double tilt_sigma_rad = 0.0;
 
   /// Effective depth noise of the label, σ_eff = √(Σ area_i / Σ (area_i / σ_i²)) (m): the
   /// area-weighted harmonic mean of the members' σ², dominated by its most precise cells.
@@ -172,7 +175,9 @@ class CrfMerger {
 /// The one-cell label of a world-frame cell of area `area_m2`: moments weighted by area / σ² with
 /// σ = max(cell.depth_sigma_m, sigma_floor_m), range information area / ρ² with
 /// ρ = max(range_sigma_m, sigma_floor_m).
-LabelState state_of_cell(const Planecell& cell, double area_m2, double range_sigma_m, double sigma_floor_m);
+/// Its tilt noise is tilt_scale·cell.normal_sigma_rad (MapConfig::normal_sigma_scale).
+LabelState state_of_cell(const Planecell& cell, double area_m2, double range_sigma_m, double sigma_floor_m,
+                         double tilt_scale = 0.0);
 /// The same with ρ = σ (the cell's own σ_Z).
 inline LabelState state_of_cell(const Planecell& cell, double area_m2, double sigma_floor_m) {
   return state_of_cell(cell, area_m2, static_cast<double>(cell.depth_sigma_m), sigma_floor_m);

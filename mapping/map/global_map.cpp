@@ -376,7 +376,8 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
     // fits keep weighting by σ_Z.
     const double range_sigma = config_.normal_depth_noise ? normal_depth_sigma_m(*fresh[k], camera_centre)
                                                           : static_cast<double>(fresh[k]->depth_sigma_m);
-    labels.emplace(label, state_of_cell(*fresh[k], fresh_area[k], range_sigma, config_.residual_scale_m));
+    labels.emplace(label, state_of_cell(*fresh[k], fresh_area[k], range_sigma, config_.residual_scale_m,
+                                        config_.normal_sigma_scale));
   }
 
   // 2. Neighbour edges: same frame (image adjacency, or 3D proximity), earlier cells (index).

@@ -118,6 +118,34 @@ bool refine(const SampleLanes& s, const Origin& o, double threshold, LocalPlane&
   return true;
 }
 
+/// The inliers' residual variance s² = Σ r²/(n − 3), image centroid and centred scatter about
+/// `plane` (PlaneFitResult), in one pass over the lanes; left at zero with ≤ 3 inliers.
+void inlier_statistics(const SampleLanes& s, const Origin& o, const LocalPlane& plane, double threshold,
+                       PlaneFitResult& result) {
+  using L = Lane<double>;
+  L n = L::Zero(), su = n, sv = n, suu = n, suv = n, svv = n, srr = n;
+  for (int k = 0; k < s.padded_count(); k += kSampleLane) {
+    const L u = load<double>(s.u + k) - o.u0, v = load<double>(s.v + k) - o.v0;
+    const L r = plane.a * u + plane.b * v + plane.c - load<double>(s.d + k);
+    const L m = (r.abs() <= threshold).select(L::Ones(), L::Zero());
+    const L mu = m * u, mv = m * v;
+    n += m;
+    su += mu;
+    sv += mv;
+    suu += mu * u;
+    suv += mu * v;
+    svv += mv * v;
+    srr += m * r * r;
+  }
+  const double count = n.sum();
+  if (count <= 3.0) return;
+  const double mean_u = su.sum() / count, mean_v = sv.sum() / count;
+  result.residual_variance_px2 = srr.sum() / (count - 3.0);
+  result.inlier_centroid_px = {mean_u + o.u0, mean_v + o.v0};
+  result.inlier_scatter_px2 << suu.sum() - su.sum() * mean_u, suv.sum() - su.sum() * mean_v,
+      suv.sum() - su.sum() * mean_v, svv.sum() - sv.sum() * mean_v;
+}
+
 /// Copies an even subset of at most kScoringSamples samples (stride |samples| / 96) into
 /// `storage` and returns it as lanes (the samples themselves when there are few).
 SampleLanes scoring_subset(const SampleLanes& s, std::array<float, 3 * kScoringSamples>& storage) {
@@ -169,6 +197,7 @@ PlaneFitResult fit_with(const SampleLanes& samples, const ExtractionConfig& conf
     if (!refine(samples, origin, threshold, best)) break;
   result.plane = {best.a, best.b, best.c - best.a * origin.u0 - best.b * origin.v0};
   result.inliers = count_inliers<double>(samples, origin, best, threshold);
+  inlier_statistics(samples, origin, best, threshold, result);
   result.ok = result.inliers >= 3 && result.inlier_ratio() >= config.min_inlier_ratio;
   return result;
 }
@@ -262,6 +291,9 @@ void fit_segment_planes(SuperpixelState& s, const SegmentSamples& samples,
   const int n = s.num_segments;
   fits.inliers.assign(n, 0);
   fits.valid.assign(n, 0);
+  fits.residual_variance_px2.assign(n, 0.0);
+  fits.inlier_centroid_px.assign(n, Eigen::Vector2d::Zero());
+  fits.inlier_scatter_px2.assign(n, Eigen::Matrix2d::Zero());
   s.planes.resize(n);
   s.has_plane.assign(n, 0);
   // Segment k draws from std::mt19937(random_seed·7919 + k); the first draws of all segments
@@ -287,6 +319,9 @@ void fit_segment_planes(SuperpixelState& s, const SegmentSamples& samples,
     const auto fit = fit_with(lanes, config, rng);
     fits.inliers[seg] = fit.inliers;
     if (!fit.ok) continue;
+    fits.residual_variance_px2[seg] = fit.residual_variance_px2;
+    fits.inlier_centroid_px[seg] = fit.inlier_centroid_px;
+    fits.inlier_scatter_px2[seg] = fit.inlier_scatter_px2;
     s.planes[seg] = fit.plane;
     s.has_plane[seg] = 1;
   }

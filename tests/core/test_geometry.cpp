@@ -122,6 +122,26 @@ TEST(DisparityPlane, EveryBackProjectedPixelLiesOnTheExactPlane) {
   EXPECT_NEAR(again.c, d.c, 1e-9);
 }
 
+TEST(DisparityPlane, NormalSigmaOfAFrontoParallelPlaneIsItsSlopesSigmaOverItsDisparity) {
+  // d = 35 (Z = 10). Slopes moved by σ_a along u, with c keeping d at the centroid (cx, cy):
+  // the raw normal (a·fx, b·fy, a·cx + b·cy + c) becomes (σ_a·fx, 0, 35), turned by
+  // atan(σ_a·fx / 35); likewise atan(σ_b·fy / 35) along v; the two add in quadrature.
+  const StereoCamera camera = test_camera();
+  const DisparityPlane wall{0.0, 0.0, 35.0};
+  const Eigen::Vector2d centroid(camera.cx, camera.cy);
+  const double sigma_a = 0.002, sigma_b = 0.001;
+  Eigen::Matrix2d cov = Eigen::Matrix2d::Zero();
+  cov.diagonal() << sigma_a * sigma_a, sigma_b * sigma_b;
+  const double along_u = std::atan(sigma_a * camera.fx / 35.0), along_v = std::atan(sigma_b * camera.fy / 35.0);
+  EXPECT_NEAR(normal_sigma_rad(wall, cov, centroid, camera), std::hypot(along_u, along_v), 1e-9);
+  // A cell 4× wider in each direction (scatter ×16, slopes' covariance ÷16) turns a quarter as much.
+  EXPECT_NEAR(normal_sigma_rad(wall, cov / 16.0, centroid, camera),
+              std::hypot(std::atan(sigma_a / 4 * camera.fx / 35.0), std::atan(sigma_b / 4 * camera.fy / 35.0)), 1e-9);
+  // A slope error turns a far plane (small disparity) more than a near one.
+  EXPECT_GT(normal_sigma_rad({0.0, 0.0, 7.0}, cov, centroid, camera), normal_sigma_rad(wall, cov, centroid, camera));
+  EXPECT_EQ(normal_sigma_rad(wall, Eigen::Matrix2d::Zero(), centroid, camera), 0.0);
+}
+
 TEST(DisparityPlane, PlaneThroughTheCameraCentreIsRejected) {
   Plane3 edge_on;
   edge_on.normal = Eigen::Vector3d::UnitX();

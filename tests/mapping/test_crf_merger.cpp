@@ -324,6 +324,36 @@ TEST(IncrementalMerge, NoisyCellJoinsWithinItsNoiseButDoesNotBridgeParallelSurfa
   EXPECT_NE(r3.cell_surfaces[0], sidewalk);
 }
 
+TEST(IncrementalMerge, CellWithAnUncertainNormalJoinsTheWallItsCentreLiesOn) {
+  // Frame 1: a wall z = 10 of six precise 1 m cells (x ∈ [0, 3], y ∈ [0, 2]) facing the camera.
+  // Frame 2: one cell beside it (x from 3) whose centre lies on the wall's plane but whose fit
+  // turned it 25° about the vertical: its vertices lie ±0.5·sin 25° = ±0.21 m off the plane.
+  const auto merged_with_wall = [](double normal_sigma_scale, float normal_sigma_rad) {
+    MapConfig config;
+    config.normal_sigma_scale = normal_sigma_scale;
+    GlobalMap map(config);
+    std::vector<Planecell> wall;
+    for (std::uint32_t k = 0; k < 6; ++k)
+      wall.push_back(rect_cell(k, {static_cast<float>(k % 3), static_cast<float>(k / 3), 10.0f}, kX, kY, 3));
+    for (auto& cell : wall) cell.depth_sigma_m = 0.03f;
+    const std::vector<LabelEdge> chain = {{0, 1, 20}, {1, 2, 20}, {3, 4, 20}, {4, 5, 20}, {0, 3, 20}};
+    const std::uint32_t wall_cell = map.integrate(1, Pose::Identity(), wall, chain).added_cells.at(0);
+    EXPECT_EQ(map.surfaces().size(), 1u);
+    const float turn = 25.0f * 3.14159265f / 180.0f;
+    const Eigen::Vector3f across(std::cos(turn), 0.0f, std::sin(turn));
+    Planecell turned = rect_cell(0, {3.0f, 0.5f, 10.0f - 0.5f * std::sin(turn)}, across, kY, 3);
+    turned.depth_sigma_m = 0.03f;
+    turned.normal_sigma_rad = normal_sigma_rad;
+    const auto report = map.integrate(2, Pose::Identity(), std::vector<Planecell>{turned});
+    return report.cell_surfaces.at(0) == map.cells().at(wall_cell).surface;
+  };
+  // κ·σ_θ = 8 · 0.0625 = 0.5 rad: the range widens to 10° + 28.6° and to a tilt reach of
+  // 0.5 · 0.5 m (a unit square's in-plane spread √(tr S / 2) = 0.5 m) = 0.25 m ≥ 0.21 m.
+  EXPECT_TRUE(merged_with_wall(8.0, 0.0625f));
+  // The same cell with a well-determined normal, or with the widening off: a surface of its own.
+  EXPECT_FALSE(merged_with_wall(8.0, 0.0f));
+  EXPECT_FALSE(merged_with_wall(0.0, 0.0625f));
+}
 
 /// The circular greedy as the paper states it: every round evaluates every edge between two
 /// labels (the oracle for CrfMerger::merge, which skips edges whose labels did not change).

@@ -205,6 +205,37 @@ TEST_P(PlanecellExtraction, FittedPlanesRecoverTheSceneGeometry) {
   EXPECT_GT(checked, 80);
 }
 
+TEST_P(PlanecellExtraction, NormalSigmaIsTheSpreadOfTheFittedNormals) {
+  // The scene's disparity noise is independent per pixel (uniform ±t', σ = t'/√3), as the fit's
+  // covariance s²·C⁻¹ assumes: each pure cell's normal error α against its region's exact plane
+  // is one draw with E[α²] = σ_θ², so RMS(α / σ_θ) over the cells is ≈ 1. Without noise the
+  // fit is exact and σ_θ ≈ 0.
+  const bool noisy = GetParam().disparity_noise > 0.0;
+  double sum_ratio2 = 0.0;
+  int checked = 0;
+  for (std::size_t k = 0; k < frame_.cells.size(); ++k) {
+    const Planecell& cell = frame_.cells[k];
+    const Region& truth = scene_.regions[majority_[k]];
+    if (!truth.has_disparity || purity_[k] < 0.99 || cell.area_px < 150 || !cell.has_plane) continue;
+    ++checked;
+    if (!noisy) {
+      EXPECT_LT(cell.normal_sigma_rad, 1e-4f) << "cell " << k;
+      continue;
+    }
+    ASSERT_GT(cell.normal_sigma_rad, 0.0f) << "cell " << k;
+    const Eigen::Vector3d exact = plane_from_disparity(truth.plane, scene_.camera).normal;
+    const double alpha = std::acos(std::min(1.0, std::abs(exact.dot(cell.plane.normal))));
+    const double ratio = alpha / cell.normal_sigma_rad;
+    sum_ratio2 += ratio * ratio;
+  }
+  ASSERT_GT(checked, 80);
+  if (noisy) {
+    const double rms = std::sqrt(sum_ratio2 / checked);
+    EXPECT_GT(rms, 0.8);
+    EXPECT_LT(rms, 1.25);
+  }
+}
+
 TEST_P(PlanecellExtraction, DenseDisparityIsAccurateWherePlanesExist) {
   ASSERT_EQ(frame_.dense_disparity.type(), CV_32F);
   int n = 0, within_1px = 0;
