@@ -43,13 +43,17 @@ struct MapConfig {
   /// be off (LabelState::range_sigma_m). false: by σ_Z. Plane fits (weights area / σ_Z²),
   /// coverage and the stored cell keep σ_Z.
   bool normal_depth_noise = true;
-  /// The range also widens by a new cell's uncertain orientation: its fit's normal σ_θ
-  /// (Planecell::normal_sigma_rad) times this scale κ, since SGM's aggregation correlates the
-  /// pixels' disparity errors that the fit takes as independent. The angle range grows by k·κ·σ_θ
-  /// (up to max_noisy_normal_angle_deg) and the distance range by the tilt's reach over the
-  /// cell's extent, k·κ·σ_θ·r (r the RMS in-plane distance of its vertices from their centroid,
-  /// over √2). A label's κσ_θ combines its members' as 1/√Σ(κσ_θ)⁻²; 0 = off.
-  double normal_sigma_scale = 0.0;
+  /// The angle range also widens by a new cell's uncertain orientation: by k·κ·σ_θ, its fit's
+  /// normal σ_θ (Planecell::normal_sigma_rad) times this scale κ, up to
+  /// max_noisy_normal_angle_deg. The fit takes the pixels' disparity errors as independent; SGM's
+  /// aggregation correlates them, and on the synthetic streets the cells' actual normal error is
+  /// 6–12× σ_θ (median per kind of surface), hence κ = 8. A label's κσ_θ combines its members'
+  /// as 1/√Σ(κσ_θ)⁻² (stored surfaces count as exact); two mature labels may differ by
+  /// max_normal_angle_deg widened by k·√(κσ_lo² + κσ_hi²). The distance range is not widened
+  /// by the tilt: a weakly textured facade's cells sit on their plane (5–9 cm) while turned by
+  /// 19–30°, and widening it as well merged sidewalks across their kerb (docs/PERFORMANCE.md,
+  /// "Normals the plane fit cannot determine"). 0 = off.
+  double normal_sigma_scale = 8.0;
   double max_noisy_normal_angle_deg = 45.0;  ///< cap of the angle range widened by σ_θ
   /// The reverse test (the better-informed label on the other's plane) applies when the other
   /// holds at least this share of its information (comparable labels are tested both ways).

@@ -248,20 +248,6 @@ CrfMerger::CrfMerger(const MapConfig& config) : config_(config) {
                       std::to_string(config.max_normal_angle_deg));
 }
 
-namespace {
-
-/// RMS in-plane distance of the moments' points from their mean, over √2: the RMS distance
-/// along the normal that tilting their plane by 1 rad about a random in-plane axis through the
-/// mean moves them, √(tr S / 2) with S the weighted scatter (its out-of-plane eigenvalue ≈ 0).
-double in_plane_spread_m(const PlaneMoments& moments) {
-  if (!(moments.weight > 0.0)) return 0.0;
-  const Eigen::Vector3d mean = moments.sum / moments.weight;
-  const double trace = moments.sum_outer.trace() / moments.weight - mean.squaredNorm();
-  return std::sqrt(std::max(0.0, trace) / 2.0);
-}
-
-}  // namespace
-
 EdgeEvaluation CrfMerger::evaluate(const MergeUnit& a, const LabelState& label_a,
                                    const MergeUnit& b, const LabelState& label_b,
                                    double boundary_m) const {
@@ -283,9 +269,7 @@ EdgeEvaluation CrfMerger::evaluate(const MergeUnit& a, const LabelState& label_a
                           : angle_deg;
   };
   auto distance_tolerance = [&](const LabelState& s) {
-    const double depth = k * s.range_sigma_m();
-    const double tilt = s.tilt_sigma_rad > 0.0 ? k * s.tilt_sigma_rad * in_plane_spread_m(s.moments) : 0.0;
-    return std::max(config_.max_plane_distance_m, std::hypot(depth, tilt));
+    return std::max(config_.max_plane_distance_m, k * s.range_sigma_m());
   };
   auto angle_tolerance = [&](const LabelState& s) {
     const double extent_m = std::sqrt(std::max(s.observed_area_m2, 1e-6));

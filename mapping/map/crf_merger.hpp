@@ -147,8 +147,11 @@ class CrfMerger {
   ///   rms_w(lo → hi.plane) ≤ max(max_plane_distance_m, k·σ_eff(lo)),
   ///   ∠(n_lo, n_hi) ≤ max_normal_angle_deg + min(max_normal_angle_deg, atan(k·σ_eff(lo)/√area_lo)),
   /// and, when lo holds at least mutual_information_fraction of hi's information, the same with
-  /// the roles swapped; colour δ(h_lo, h_hi) ≥ min_colour_similarity. Two mature labels (both
-  /// with ≥ mature_cells members) must be parallel within max_normal_angle_deg and continuous at
+  /// the roles swapped; colour δ(h_lo, h_hi) ≥ min_colour_similarity. A label whose normal is
+  /// uncertain (LabelState::tilt_sigma_rad = κσ_θ > 0) gets its angle range widened by k·κσ_θ, up
+  /// to max_noisy_normal_angle_deg. Two mature labels (both
+  /// with ≥ mature_cells members) must be parallel within max_normal_angle_deg (widened by
+  /// k·√(κσ_lo² + κσ_hi²), with the same cap) and continuous at
   /// their boundary: the step |d_hi(m) − s·d_lo(m)| between the planes at the midpoint m of the
   /// edge's two cell centroids ≤ max_plane_distance_m, never widened by noise. One noisy cell can
   /// join a surface, but cannot bridge two surfaces that are not on one plane themselves.

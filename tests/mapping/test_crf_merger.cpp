@@ -326,8 +326,11 @@ TEST(IncrementalMerge, NoisyCellJoinsWithinItsNoiseButDoesNotBridgeParallelSurfa
 
 TEST(IncrementalMerge, CellWithAnUncertainNormalJoinsTheWallItsCentreLiesOn) {
   // Frame 1: a wall z = 10 of six precise 1 m cells (x ∈ [0, 3], y ∈ [0, 2]) facing the camera.
-  // Frame 2: one cell beside it (x from 3) whose centre lies on the wall's plane but whose fit
-  // turned it 25° about the vertical: its vertices lie ±0.5·sin 25° = ±0.21 m off the plane.
+  // Frame 2: one far, noisy cell (σ_Z = 0.35 m; along its normal, seen from the origin,
+  // σ_n = σ_Z·|n·r̂| = 0.25 m) beside it (x from 3) whose centre lies on the wall's plane but
+  // whose fit turned it 25° about the vertical: its vertices lie ±0.5·sin 25° = ±0.21 m off the
+  // plane, within its depth noise, but its normal is outside the angle range
+  // 10° + min(atan(0.25 m / 1 m), 10°) = 20°.
   const auto merged_with_wall = [](double normal_sigma_scale, float normal_sigma_rad) {
     MapConfig config;
     config.normal_sigma_scale = normal_sigma_scale;
@@ -342,17 +345,18 @@ TEST(IncrementalMerge, CellWithAnUncertainNormalJoinsTheWallItsCentreLiesOn) {
     const float turn = 25.0f * 3.14159265f / 180.0f;
     const Eigen::Vector3f across(std::cos(turn), 0.0f, std::sin(turn));
     Planecell turned = rect_cell(0, {3.0f, 0.5f, 10.0f - 0.5f * std::sin(turn)}, across, kY, 3);
-    turned.depth_sigma_m = 0.03f;
+    turned.depth_sigma_m = 0.35f;
     turned.normal_sigma_rad = normal_sigma_rad;
     const auto report = map.integrate(2, Pose::Identity(), std::vector<Planecell>{turned});
     return report.cell_surfaces.at(0) == map.cells().at(wall_cell).surface;
   };
-  // κ·σ_θ = 8 · 0.0625 = 0.5 rad: the range widens to 10° + 28.6° and to a tilt reach of
-  // 0.5 · 0.5 m (a unit square's in-plane spread √(tr S / 2) = 0.5 m) = 0.25 m ≥ 0.21 m.
-  EXPECT_TRUE(merged_with_wall(8.0, 0.0625f));
+  // κ·σ_θ = 8 · 0.0125 = 0.1 rad = 5.7°: the angle range widens to 25.7° ≥ 25°.
+  EXPECT_TRUE(merged_with_wall(8.0, 0.0125f));
   // The same cell with a well-determined normal, or with the widening off: a surface of its own.
   EXPECT_FALSE(merged_with_wall(8.0, 0.0f));
-  EXPECT_FALSE(merged_with_wall(0.0, 0.0625f));
+  EXPECT_FALSE(merged_with_wall(0.0, 0.0125f));
+  // A normal known to 0.008 rad (κσ_θ = 3.7°, range 23.7°) is known too well to be 25° off.
+  EXPECT_FALSE(merged_with_wall(8.0, 0.008f));
 }
 
 /// The circular greedy as the paper states it: every round evaluates every edge between two
