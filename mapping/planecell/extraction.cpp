@@ -240,10 +240,9 @@ PlanecellFrame extract_planecells(const cv::Mat& left, const cv::Mat& right, con
     cell.inlier_ratio = fits.valid[k] > 0 && cell.has_plane
                             ? static_cast<float>(fits.inliers[k]) / fits.valid[k]
                             : 0.0f;
-    const Eigen::Matrix2d& scatter = fits.inlier_scatter_px2[k];
-    if (cell.has_plane && fits.residual_variance_px2[k] > 0.0 && scatter.determinant() > 0.0)
-      cell.normal_sigma_rad = static_cast<float>(normal_sigma_rad(
-          cell.disparity_plane, fits.residual_variance_px2[k] * scatter.inverse(), fits.inlier_centroid_px[k], camera));
+    if (cell.has_plane)  // 0 when the fit left no covariance
+      cell.normal_sigma_rad = static_cast<float>(
+          normal_sigma_rad(cell.disparity_plane, fits.slope_covariance[k], fits.inlier_centroid_px[k], camera));
     cell.vertices_px = polygons[k];
     convert_to_3d(cell, camera);
     if (cell.has_plane && !cell.vertices_m.empty()) {

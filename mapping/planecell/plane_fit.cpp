@@ -74,18 +74,25 @@ int count_inliers(const SampleLanes& s, const Origin& o, const LocalPlane& p, do
   return static_cast<int>(count.sum());  // exact: integers far below 2²⁴
 }
 
-/// Least squares on the inliers of `plane`: with the inliers' means (ū, v̄, d̄) and centred
-/// moments C_xy = Σ (x − x̄)(y − ȳ), the normal equations reduce to
-///   [C_uu C_uv; C_uv C_vv]·(a, b)ᵀ = (C_ud, C_vd)ᵀ,  c = d̄ − a·ū − b·v̄,
-/// accumulated in one pass over the lanes (disparities relative to the current plane's c).
-/// False (plane kept) with fewer than 3 inliers or when they lie on a line.
-bool refine(const SampleLanes& s, const Origin& o, double threshold, LocalPlane& plane) {
+/// One pass over the lanes: the inliers of `plane` (|r| ≤ threshold, r = θ(p) − d(p)) with their
+/// means (ū, v̄, d̄; disparities relative to plane.c, which keeps the sums well conditioned), centred
+/// moments C_xy = Σ (x − x̄)(y − ȳ) and residual sum of squares Σ r². Means and moments are zero
+/// without inliers.
+struct InlierSums {
+  double count = 0.0;
+  double mean_u = 0.0, mean_v = 0.0, mean_d = 0.0;
+  double cuu = 0.0, cuv = 0.0, cvv = 0.0, cud = 0.0, cvd = 0.0;
+  double residual_ss = 0.0;
+};
+
+InlierSums inlier_sums(const SampleLanes& s, const Origin& o, const LocalPlane& plane, double threshold) {
   using L = Lane<double>;
   const double d0 = plane.c;
-  L n = L::Zero(), su = n, sv = n, sd = n, suu = n, suv = n, svv = n, sud = n, svd = n;
+  L n = L::Zero(), su = n, sv = n, sd = n, suu = n, suv = n, svv = n, sud = n, svd = n, srr = n;
   for (int k = 0; k < s.padded_count(); k += kSampleLane) {
-    const L m = inlier_lane<double>(s, k, o, plane, threshold);
     const L u = load<double>(s.u + k) - o.u0, v = load<double>(s.v + k) - o.v0;
+    const L r = plane.a * u + plane.b * v + plane.c - load<double>(s.d + k);
+    const L m = (r.abs() <= threshold).select(L::Ones(), L::Zero());
     const L d = m * (load<double>(s.d + k) - d0);  // 0 on outliers and padding
     const L mu = m * u, mv = m * v;
     n += m;
@@ -97,53 +104,39 @@ bool refine(const SampleLanes& s, const Origin& o, double threshold, LocalPlane&
     svv += mv * v;
     sud += mu * d;
     svd += mv * d;
-  }
-  const double count = n.sum();
-  if (count < 3.0) return false;
-  const double mean_u = su.sum() / count, mean_v = sv.sum() / count, mean_d = sd.sum() / count;
-  const double cuu = suu.sum() - su.sum() * mean_u;
-  const double cuv = suv.sum() - su.sum() * mean_v;
-  const double cvv = svv.sum() - sv.sum() * mean_v;
-  const double cud = sud.sum() - su.sum() * mean_d;
-  const double cvd = svd.sum() - sv.sum() * mean_d;
-  const double det = cuu * cvv - cuv * cuv;
-  // Degenerate spread (all inliers on a line): keep the hypothesis.
-  if (!(det >= 1e-6 * count * count)) return false;
-  const double a = (cud * cvv - cvd * cuv) / det;
-  const double b = (cvd * cuu - cud * cuv) / det;
-  if (!std::isfinite(a) || !std::isfinite(b)) return false;
-  plane.a = a;
-  plane.b = b;
-  plane.c = d0 + mean_d - a * mean_u - b * mean_v;
-  return true;
-}
-
-/// The inliers' residual variance s² = Σ r²/(n − 3), image centroid and centred scatter about
-/// `plane` (PlaneFitResult), in one pass over the lanes; left at zero with ≤ 3 inliers.
-void inlier_statistics(const SampleLanes& s, const Origin& o, const LocalPlane& plane, double threshold,
-                       PlaneFitResult& result) {
-  using L = Lane<double>;
-  L n = L::Zero(), su = n, sv = n, suu = n, suv = n, svv = n, srr = n;
-  for (int k = 0; k < s.padded_count(); k += kSampleLane) {
-    const L u = load<double>(s.u + k) - o.u0, v = load<double>(s.v + k) - o.v0;
-    const L r = plane.a * u + plane.b * v + plane.c - load<double>(s.d + k);
-    const L m = (r.abs() <= threshold).select(L::Ones(), L::Zero());
-    const L mu = m * u, mv = m * v;
-    n += m;
-    su += mu;
-    sv += mv;
-    suu += mu * u;
-    suv += mu * v;
-    svv += mv * v;
     srr += m * r * r;
   }
-  const double count = n.sum();
-  if (count <= 3.0) return;
-  const double mean_u = su.sum() / count, mean_v = sv.sum() / count;
-  result.residual_variance_px2 = srr.sum() / (count - 3.0);
-  result.inlier_centroid_px = {mean_u + o.u0, mean_v + o.v0};
-  result.inlier_scatter_px2 << suu.sum() - su.sum() * mean_u, suv.sum() - su.sum() * mean_v,
-      suv.sum() - su.sum() * mean_v, svv.sum() - sv.sum() * mean_v;
+  InlierSums out;
+  out.count = n.sum();
+  if (out.count <= 0.0) return out;
+  out.mean_u = su.sum() / out.count;
+  out.mean_v = sv.sum() / out.count;
+  out.mean_d = sd.sum() / out.count;
+  out.cuu = suu.sum() - su.sum() * out.mean_u;
+  out.cuv = suv.sum() - su.sum() * out.mean_v;
+  out.cvv = svv.sum() - sv.sum() * out.mean_v;
+  out.cud = sud.sum() - su.sum() * out.mean_d;
+  out.cvd = svd.sum() - sv.sum() * out.mean_d;
+  out.residual_ss = srr.sum();
+  return out;
+}
+
+/// Least squares on the inliers of `plane`: the normal equations reduce to
+///   [C_uu C_uv; C_uv C_vv]·(a, b)ᵀ = (C_ud, C_vd)ᵀ,  c = d̄ − a·ū − b·v̄
+/// (InlierSums). False (plane kept) with fewer than 3 inliers or when they lie on a line.
+bool refine(const SampleLanes& s, const Origin& o, double threshold, LocalPlane& plane) {
+  const InlierSums m = inlier_sums(s, o, plane, threshold);
+  if (m.count < 3.0) return false;
+  const double det = m.cuu * m.cvv - m.cuv * m.cuv;
+  // Degenerate spread (all inliers on a line): keep the hypothesis.
+  if (!(det >= 1e-6 * m.count * m.count)) return false;
+  const double a = (m.cud * m.cvv - m.cvd * m.cuv) / det;
+  const double b = (m.cvd * m.cuu - m.cud * m.cuv) / det;
+  if (!std::isfinite(a) || !std::isfinite(b)) return false;
+  plane.c = plane.c + m.mean_d - a * m.mean_u - b * m.mean_v;
+  plane.a = a;
+  plane.b = b;
+  return true;
 }
 
 /// Copies an even subset of at most kScoringSamples samples (stride |samples| / 96) into
@@ -196,8 +189,15 @@ PlaneFitResult fit_with(const SampleLanes& samples, const ExtractionConfig& conf
   for (int pass = 0; pass < 2; ++pass)
     if (!refine(samples, origin, threshold, best)) break;
   result.plane = {best.a, best.b, best.c - best.a * origin.u0 - best.b * origin.v0};
-  result.inliers = count_inliers<double>(samples, origin, best, threshold);
-  inlier_statistics(samples, origin, best, threshold, result);
+  // The final inliers: their count, and the slopes' covariance s²·C⁻¹ with s² = Σ r²/(n − 3).
+  const InlierSums final_inliers = inlier_sums(samples, origin, best, threshold);
+  result.inliers = static_cast<int>(final_inliers.count);
+  Eigen::Matrix2d scatter;
+  scatter << final_inliers.cuu, final_inliers.cuv, final_inliers.cuv, final_inliers.cvv;
+  if (final_inliers.count > 3.0 && final_inliers.residual_ss > 0.0 && scatter.determinant() > 0.0) {
+    result.slope_covariance = final_inliers.residual_ss / (final_inliers.count - 3.0) * scatter.inverse();
+    result.inlier_centroid_px = {final_inliers.mean_u + origin.u0, final_inliers.mean_v + origin.v0};
+  }
   result.ok = result.inliers >= 3 && result.inlier_ratio() >= config.min_inlier_ratio;
   return result;
 }
@@ -291,9 +291,8 @@ void fit_segment_planes(SuperpixelState& s, const SegmentSamples& samples,
   const int n = s.num_segments;
   fits.inliers.assign(n, 0);
   fits.valid.assign(n, 0);
-  fits.residual_variance_px2.assign(n, 0.0);
+  fits.slope_covariance.assign(n, Eigen::Matrix2d::Zero());
   fits.inlier_centroid_px.assign(n, Eigen::Vector2d::Zero());
-  fits.inlier_scatter_px2.assign(n, Eigen::Matrix2d::Zero());
   s.planes.resize(n);
   s.has_plane.assign(n, 0);
   // Segment k draws from std::mt19937(random_seed·7919 + k); the first draws of all segments
@@ -319,9 +318,8 @@ void fit_segment_planes(SuperpixelState& s, const SegmentSamples& samples,
     const auto fit = fit_with(lanes, config, rng);
     fits.inliers[seg] = fit.inliers;
     if (!fit.ok) continue;
-    fits.residual_variance_px2[seg] = fit.residual_variance_px2;
+    fits.slope_covariance[seg] = fit.slope_covariance;
     fits.inlier_centroid_px[seg] = fit.inlier_centroid_px;
-    fits.inlier_scatter_px2[seg] = fit.inlier_scatter_px2;
     s.planes[seg] = fit.plane;
     s.has_plane[seg] = 1;
   }

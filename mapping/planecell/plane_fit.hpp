@@ -16,11 +16,11 @@ struct PlaneFitResult {
   DisparityPlane plane;    ///< least-squares plane on the inliers (when ok)
   int inliers = 0;         ///< |θ(p) − d(p)| ≤ inlier_threshold_px
   int valid = 0;           ///< samples given
-  /// The final inliers' residual variance s² = Σ r²/(n − 3) (px²), their image centroid p̄ (px)
-  /// and centred scatter C = Σ (p − p̄)(p − p̄)ᵀ (px²): the slopes' covariance is s²·C⁻¹.
-  double residual_variance_px2 = 0.0;
+  /// Covariance of the slopes (a, b) from the final inliers, s²·C⁻¹ with s² = Σ r²/(n − 3) their
+  /// residual variance and C = Σ (p − p̄)(p − p̄)ᵀ their centred image scatter, and their image
+  /// centroid p̄ (px); both zero with ≤ 3 inliers, no residual or inliers on a line.
+  Eigen::Matrix2d slope_covariance = Eigen::Matrix2d::Zero();
   Eigen::Vector2d inlier_centroid_px = Eigen::Vector2d::Zero();
-  Eigen::Matrix2d inlier_scatter_px2 = Eigen::Matrix2d::Zero();
   double inlier_ratio() const { return valid > 0 ? static_cast<double>(inliers) / valid : 0.0; }
 };
 

@@ -186,10 +186,10 @@ SegmentSamples gather_segment_samples(const SuperpixelState& state);
 struct SegmentPlaneFits {
   std::vector<std::int32_t> inliers;
   std::vector<std::int32_t> valid;
-  /// Of a fitted segment, its inliers' statistics (PlaneFitResult); zero when it has no plane.
-  std::vector<double> residual_variance_px2;
+  /// Of a fitted segment, its slopes' covariance and inliers' centroid (PlaneFitResult); zero
+  /// when it has no plane.
+  std::vector<Eigen::Matrix2d> slope_covariance;
   std::vector<Eigen::Vector2d> inlier_centroid_px;
-  std::vector<Eigen::Matrix2d> inlier_scatter_px2;
 };
 
 /// The first kPrecomputedDraws outputs of std::mt19937(seed) for kSeedBatch seeds at once

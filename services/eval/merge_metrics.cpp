@@ -44,9 +44,9 @@ void MergeEvaluator::add_frame(const cv::Mat& labels, const cv::Mat& gt_surface_
       ++mixed_;
       continue;
     }
+    const Eigen::Vector3d centroid = map::vertex_centroid(cells_world[i].vertices_m);
     samples_.push_back({best->first, static_cast<float>(map::polygon_area_m2(cells_world[i].vertices_m)),
-                        report.cell_surfaces[i], cells_world[i].depth_sigma_m,
-                        map::vertex_centroid(cells_world[i].vertices_m).cast<float>()});
+                        report.cell_surfaces[i], cells_world[i].depth_sigma_m, centroid.cast<float>()});
     if (const auto plane = gt_planes_.find(best->first); plane != gt_planes_.end() && !cells_world[i].vertices_m.empty()) {
       // θ' with σ = 1 m: the RMS distance of the vertices to the GT plane, in metres.
       plane_errors_m_.push_back(static_cast<float>(map::plane_residual(plane->second, cells_world[i].vertices_m, 1.0)));
@@ -54,8 +54,7 @@ void MergeEvaluator::add_frame(const cv::Mat& labels, const cv::Mat& gt_surface_
       plane_error_weak_.push_back(gt_weak_texture_.contains(best->first));
       const double cos_angle = std::min(1.0, std::abs(plane->second.normal.dot(cells_world[i].plane.normal)));
       normal_errors_deg_.push_back(static_cast<float>(std::acos(cos_angle) * 180.0 / std::numbers::pi));
-      centroid_offsets_m_.push_back(static_cast<float>(
-          std::abs(plane->second.signed_distance(map::vertex_centroid(cells_world[i].vertices_m)))));
+      centroid_offsets_m_.push_back(static_cast<float>(std::abs(plane->second.signed_distance(centroid))));
     }
   }
   add_map_changes(report);

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <functional>
 #include <numbers>
 
 #include "core/error.hpp"
@@ -347,23 +348,27 @@ TEST(MergeMetrics, CellPlaneErrorIsTheRmsVertexDistanceToTheGtPlane) {
   EXPECT_NEAR(m.plane_error_over_sigma_median, 1.0 / 3.0, 1e-6);
 }
 
-TEST(MergeMetrics, CellPlaneErrorOnWeaklyTexturedSurfacesIsReportedApart) {
+/// Three frames of a cell on GT 1 (weakly textured) beside a cell on GT 2 (textured), both GT
+/// surfaces on the plane z = 0, in labels 10 and 20: frame i ∈ {1, 2, 3} gives cells_of_frame(i).
+MergeMetrics weak_beside_textured(const std::function<std::vector<Planecell>(int)>& cells_of_frame) {
   MergeEvaluator eval;
-  // GT 1 (weakly textured) and GT 2 (textured) both on z = 0.
   eval.set_gt_surface_planes({{1, Plane3{Eigen::Vector3d::UnitZ(), 0.0}}, {2, Plane3{Eigen::Vector3d::UnitZ(), 0.0}}});
   eval.set_gt_weak_texture({1});
   cv::Mat labels, gt;
   halves(labels, gt, 0, 1, 1, 2);
   for (int i = 1; i <= 3; ++i) {
-    // The weak cell 10, 20, 30 cm off its plane, the textured one 1 cm; both σ_Z = 10 cm.
     map::MergeReport report;
     report.cell_surfaces = {10, 20};
-    eval.add_frame(labels, gt,
-                   std::vector<Planecell>{lifted_square(0, 0.1f * static_cast<float>(i), 0.1f),
-                                          lifted_square(1, 0.01f, 0.1f)},
-                   report);
+    eval.add_frame(labels, gt, cells_of_frame(i), report);
   }
-  const MergeMetrics m = eval.finish();
+  return eval.finish();
+}
+
+TEST(MergeMetrics, CellPlaneErrorOnWeaklyTexturedSurfacesIsReportedApart) {
+  // The weak cell 10, 20, 30 cm off its plane, the textured one 1 cm; both σ_Z = 10 cm.
+  const MergeMetrics m = weak_beside_textured([](int i) {
+    return std::vector<Planecell>{lifted_square(0, 0.1f * static_cast<float>(i), 0.1f), lifted_square(1, 0.01f, 0.1f)};
+  });
   ASSERT_EQ(m.plane_error_cells, 6u);
   EXPECT_NEAR(m.plane_error_median_m, 0.01, 1e-6);  // sorted 1, 1, 1, 10, 20, 30 cm: [⌊0.5·5⌋] = 1 cm
   ASSERT_EQ(m.weak_plane_error_cells, 3u);
@@ -385,23 +390,11 @@ Planecell tilted_square(std::uint32_t id, float z_m, double tilt_deg) {
 }
 
 TEST(MergeMetrics, CellPlaneErrorSplitsIntoNormalAngleAndCentroidOffset) {
-  MergeEvaluator eval;
-  // GT 1 (weakly textured) and GT 2 (textured), both the plane z = 0.
-  eval.set_gt_surface_planes({{1, Plane3{Eigen::Vector3d::UnitZ(), 0.0}}, {2, Plane3{Eigen::Vector3d::UnitZ(), 0.0}}});
-  eval.set_gt_weak_texture({1});
-  cv::Mat labels, gt;
-  halves(labels, gt, 0, 1, 1, 2);
-  for (int i = 1; i <= 3; ++i) {
-    // The weak cell tilted by 10°, 20°, 30° about a centroid 2 cm above its plane; the textured
-    // cell flat, 1, 2, 3 cm above its plane.
-    map::MergeReport report;
-    report.cell_surfaces = {10, 20};
-    eval.add_frame(labels, gt,
-                   std::vector<Planecell>{tilted_square(0, 0.02f, 10.0 * i),
-                                          tilted_square(1, 0.01f * static_cast<float>(i), 0.0)},
-                   report);
-  }
-  const MergeMetrics m = eval.finish();
+  // The weak cell tilted by 10°, 20°, 30° about a centroid 2 cm above its plane; the textured
+  // cell flat, 1, 2, 3 cm above its plane.
+  const MergeMetrics m = weak_beside_textured([](int i) {
+    return std::vector<Planecell>{tilted_square(0, 0.02f, 10.0 * i), tilted_square(1, 0.01f * static_cast<float>(i), 0.0)};
+  });
   ASSERT_EQ(m.plane_error_cells, 6u);
   // All six: angles sorted 0, 0, 0, 10, 20, 30° and offsets 1, 2, 2, 2, 2, 3 cm: [⌊0.5·5⌋] = [2].
   EXPECT_NEAR(m.normal_error_median_deg, 0.0, 1e-3);
