@@ -53,11 +53,14 @@ const FootprintTile* Footprint::find_tile(std::int32_t s, std::int32_t t) const 
   return it != tiles_.end() && it->s == s && it->t == t ? &*it : nullptr;
 }
 
-double Footprint::add_polygon(std::span<const Eigen::Vector2d> ring) {
-  if (ring.size() < 3) return 0.0;
+double Footprint::add_polygon(std::span<const Eigen::Vector2d> ring) { return add(rasterise(ring)); }
+
+FootprintRaster Footprint::rasterise(std::span<const Eigen::Vector2d> ring) const {
+  FootprintRaster raster;
+  if (ring.size() < 3) return raster;
   double lo_s = std::numeric_limits<double>::infinity(), lo_t = lo_s, hi_s = -lo_s, hi_t = -lo_s;
   for (const auto& p : ring) {
-    if (!std::isfinite(p.x()) || !std::isfinite(p.y())) return 0.0;
+    if (!std::isfinite(p.x()) || !std::isfinite(p.y())) return raster;
     lo_s = std::min(lo_s, p.x()), hi_s = std::max(hi_s, p.x());
     lo_t = std::min(lo_t, p.y()), hi_t = std::max(hi_t, p.y());
   }
@@ -67,7 +70,7 @@ double Footprint::add_polygon(std::span<const Eigen::Vector2d> ring) {
   // (fuzz_lcm crash-3e7010a1: a mirrored cell at 10³¹ m overflowed the conversion).
   constexpr double kMaxBits = static_cast<double>(1 << 30);
   if (std::max({std::abs(lo_s), std::abs(hi_s), std::abs(lo_t), std::abs(hi_t)}) * inv > kMaxBits)
-    return 0.0;
+    return raster;
   // Grid bits i cover [i·res, (i+1)·res); their centres (i + 0.5)·res must lie in the polygon's
   // bounding box: i ∈ [⌈lo/res − 0.5⌉, ⌊hi/res − 0.5⌋] (fillPoly itself also takes edge pixels).
   const auto i0 = static_cast<std::int64_t>(std::ceil(lo_s * inv - 0.5));
@@ -75,34 +78,62 @@ double Footprint::add_polygon(std::span<const Eigen::Vector2d> ring) {
   const auto i1 = static_cast<std::int64_t>(std::floor(hi_s * inv - 0.5));
   const auto j1 = static_cast<std::int64_t>(std::floor(hi_t * inv - 0.5));
   const std::int64_t cols = i1 - i0 + 1, rows = j1 - j0 + 1;
-  if (cols <= 0 || rows <= 0 || cols * rows > 4'000'000) return 0.0;  // degenerate or absurd
-  cv::Mat mask = cv::Mat::zeros(static_cast<int>(rows), static_cast<int>(cols), CV_8U);
+  if (cols <= 0 || rows <= 0 || cols * rows > 4'000'000) return raster;  // degenerate or absurd
+  raster.i0 = i0, raster.j0 = j0;
+  raster.mask = cv::Mat::zeros(static_cast<int>(rows), static_cast<int>(cols), CV_8U);
   std::vector<cv::Point> points;
   points.reserve(ring.size());
   const double scale = static_cast<double>(1 << kFootprintShift);
   for (const auto& p : ring)
     points.emplace_back(static_cast<int>(std::lround((p.x() * inv - 0.5 - static_cast<double>(i0)) * scale)),
                         static_cast<int>(std::lround((p.y() * inv - 0.5 - static_cast<double>(j0)) * scale)));
-  cv::fillPoly(mask, std::vector<std::vector<cv::Point>>{points}, cv::Scalar(1), cv::LINE_8,
+  cv::fillPoly(raster.mask, std::vector<std::vector<cv::Point>>{points}, cv::Scalar(1), cv::LINE_8,
                kFootprintShift);
+  return raster;
+}
+
+double Footprint::new_area_m2(const FootprintRaster& raster) const {
   std::size_t added = 0;
-  for (std::int64_t r = 0; r < rows; ++r) {
-    const auto* m = mask.ptr<std::uint8_t>(static_cast<int>(r));
-    const std::int64_t j = j0 + r;
+  for (int r = 0; r < raster.mask.rows; ++r) {
+    const auto* m = raster.mask.ptr<std::uint8_t>(r);
+    const std::int64_t j = raster.j0 + r;
     const auto tj = static_cast<std::int32_t>(floor_div(j, N));
     const auto bj = static_cast<int>(j - static_cast<std::int64_t>(tj) * N);
-    for (std::int64_t c = 0; c < cols;) {
+    for (std::int64_t c = 0; c < raster.mask.cols;) {
       if (!m[c]) {
         ++c;
         continue;
       }
-      const std::int64_t i = i0 + c;
+      const std::int64_t i = raster.i0 + c;
+      const auto ti = static_cast<std::int32_t>(floor_div(i, N));
+      const FootprintTile* tile = find_tile(ti, tj);
+      const std::uint32_t row = tile ? tile->rows[bj] : 0u;
+      for (; c < raster.mask.cols && floor_div(raster.i0 + c, N) == ti; ++c)
+        added += m[c] && ((row >> static_cast<int>(raster.i0 + c - static_cast<std::int64_t>(ti) * N)) & 1u) == 0;
+    }
+  }
+  return static_cast<double>(added) * resolution_m_ * resolution_m_;
+}
+
+double Footprint::add(const FootprintRaster& raster) {
+  std::size_t added = 0;
+  for (int r = 0; r < raster.mask.rows; ++r) {
+    const auto* m = raster.mask.ptr<std::uint8_t>(r);
+    const std::int64_t j = raster.j0 + r;
+    const auto tj = static_cast<std::int32_t>(floor_div(j, N));
+    const auto bj = static_cast<int>(j - static_cast<std::int64_t>(tj) * N);
+    for (std::int64_t c = 0; c < raster.mask.cols;) {
+      if (!m[c]) {
+        ++c;
+        continue;
+      }
+      const std::int64_t i = raster.i0 + c;
       const auto ti = static_cast<std::int32_t>(floor_div(i, N));
       std::uint32_t& row = tile_at(ti, tj).rows[bj];
       // Fill the run of this tile row.
-      for (; c < cols && floor_div(i0 + c, N) == ti; ++c) {
+      for (; c < raster.mask.cols && floor_div(raster.i0 + c, N) == ti; ++c) {
         if (!m[c]) continue;
-        const std::uint32_t bit = 1u << static_cast<int>(i0 + c - static_cast<std::int64_t>(ti) * N);
+        const std::uint32_t bit = 1u << static_cast<int>(raster.i0 + c - static_cast<std::int64_t>(ti) * N);
         added += (row & bit) == 0;
         row |= bit;
       }

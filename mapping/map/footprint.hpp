@@ -9,6 +9,8 @@
 #include <span>
 #include <vector>
 
+#include <opencv2/core/mat.hpp>
+
 #include "mapping/map/geometry.hpp"
 
 namespace planecell::map {
@@ -23,6 +25,15 @@ struct FootprintTile {
   bool operator==(const FootprintTile&) const = default;
 };
 
+/// A polygon rasterised on a footprint's grid (Footprint::rasterise): mask pixel (c, r) is grid
+/// bit (i0 + c, j0 + r), non-zero when that bit's centre lies inside the polygon. An empty mask
+/// covers nothing (a degenerate, non-finite or absurdly large polygon).
+struct FootprintRaster {
+  std::int64_t i0 = 0;
+  std::int64_t j0 = 0;
+  cv::Mat mask;  ///< CV_8U
+};
+
 class Footprint {
  public:
   /// A 0.1 m footprint (not explicit, so aggregates holding a Footprint value-initialise).
@@ -34,6 +45,12 @@ class Footprint {
   /// either orientation, closing vertex optional). Returns the area newly covered:
   /// (bits set now that were clear before) · res² (m²).
   double add_polygon(std::span<const Eigen::Vector2d> ring);
+  /// The same in two steps, so that the area a polygon would add is known before the footprint
+  /// changes: rasterise (the bits of add_polygon, nothing marked), new_area_m2 (the area add
+  /// would return now) and add (marks them; returns the area newly covered).
+  FootprintRaster rasterise(std::span<const Eigen::Vector2d> ring) const;
+  double new_area_m2(const FootprintRaster& raster) const;
+  double add(const FootprintRaster& raster);
   /// Marks the bit containing (s, t); returns true if it was clear.
   bool add_point(double s, double t);
 

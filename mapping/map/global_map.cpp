@@ -416,7 +416,6 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
   // Stored cells near each new cell, in one index query: neighbour edges (within the gap) and
   // the cells and surfaces that may cover it (re-observation by coverage, step 5; tol ≥ gap).
   std::unordered_map<std::uint32_t, std::uint32_t> unit_of_map_cell;
-  std::vector<std::vector<const MapCell*>> covering(fresh.size());  ///< stored, nearly coplanar
   std::vector<std::vector<const MapCell*>> superseded(fresh.size());  ///< ... and much less precise
   std::vector<std::vector<std::uint32_t>> covering_surfaces(fresh.size());  ///< nearly coplanar
   const bool coverage_rule = config_.redundant_coverage <= 1.0;
@@ -442,6 +441,25 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
     }
   };
   std::unordered_map<std::uint32_t, MetCell> met_cells;
+  /// A stored cell that may cover a new one (not much less precise than it): its tolerances, and
+  /// whether it is a neighbour of the new cell (within the gap already).
+  struct CoveringTest {
+    MetCell* met = nullptr;
+    double angle_deg = 0.0;
+    double tol = 0.0;
+    bool neighbour = false;
+  };
+  /// Does the stored cell cover the new cell: its polygon within tol of the new cell's plane,
+  /// normals within angle_deg, the polygons within tol of each other.
+  const auto covers_test = [](const Planecell& cell, const Aabb& box, MetCell& met, double angle_deg, double tol,
+                              bool neighbour) {
+    const MapCell& old = *met.cell;
+    return nearly_coplanar(cell.plane, old.plane, met.polygon(), angle_deg, tol) &&
+           (neighbour || polygons_within_m(cell.plane, cell.vertices_m, box, old.plane, met.polygon(), met.box, tol));
+  };
+  /// The stored cells to test as covering each new cell, in index order: tested in step 5 only
+  /// for the cells whose fate the coverage decides.
+  std::vector<std::vector<CoveringTest>> covering_tests(fresh.size());
   // Coverage accepts normals at most 2·redundant_normal_angle_deg apart (nearly_coplanar below):
   // a stored cell tilted more against the new cell, and on a surface tilted more, is skipped
   // before the per-pair angle is computed.
@@ -500,9 +518,10 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
       const double base_deg = config_.redundant_normal_angle_deg;
       const double angle_deg =
           std::min(2.0 * base_deg, base_deg + std::atan(noise / std::sqrt(fresh_area[k])) * 180.0 / M_PI);
-      if (nearly_coplanar(cell.plane, old.plane, met_cell.polygon(), angle_deg, tol) &&
-          (neighbour || polygons_within_m(cell.plane, cell.vertices_m, box, old.plane, met_cell.polygon(), old_box, tol)))
-        (less_precise ? superseded[k] : covering[k]).push_back(&old);
+      if (!less_precise)
+        covering_tests[k].push_back({&met_cell, angle_deg, tol, neighbour});  // when needed (step 5)
+      else if (covers_test(cell, box, met_cell, angle_deg, tol, neighbour))
+        superseded[k].push_back(&old);
       // The surface of a nearby cell covers the cell where its footprint (every observation
       // fused into it, stored or not) holds the cell's points, when its plane passes within the
       // cell's own noise (not widened to the neighbour gap: the footprint may hold noisy views)
@@ -539,17 +558,43 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
   for (std::size_t k = 0; k < fresh.size(); ++k) {
     const Planecell& cell = *fresh[k];
     const std::uint32_t root = union_find.find(units[k].label);
+    const double area = fresh_area[k];
+    // A cell whose label is a surface already, adding less than fuse_new_area_fraction of its
+    // area to that surface's footprint and not covering the much less precise stored cells it
+    // might replace, is fused below whatever its coverage: the footprint's answer comes first
+    // (rasterised before the footprint changes), the coverage test only for the cells it leaves.
+    const auto root_it = surfaces_.find(root);
+    FootprintRaster raster;
+    std::optional<bool> covers_superseded;  ///< covers_at_least(cell, superseded[k]), once computed
+    bool settled_by_footprint = false;
+    if (root_it != surfaces_.end()) {
+      wake(root_it->second);  // a CRF label already: live
+      const SurfaceDetail& detail = *root_it->second.detail;
+      raster = detail.footprint.rasterise(project_to_basis(cell.vertices_m, detail.basis));
+      if (!detail.footprint.empty() &&
+          detail.footprint.new_area_m2(raster) < config_.fuse_new_area_fraction * area)
+        settled_by_footprint =
+            superseded[k].empty() ||
+            !*(covers_superseded = covers_at_least(cell, superseded[k], config_.redundant_coverage));
+    }
     // Space the map already holds (any surface): a re-observation, fused without being stored,
     // into its own label's surface when that exists already, else into the first covering cell's.
     std::vector<const Surface*> covering_surface;  // alive after step 4's merges
-    for (std::uint32_t id : covering_surfaces[k]) {
-      const auto it = surfaces_.find(union_find.find(id));
-      if (it != surfaces_.end() && it->second.detail &&
-          std::find(covering_surface.begin(), covering_surface.end(), &it->second) == covering_surface.end())
-        covering_surface.push_back(&it->second);
+    std::vector<const MapCell*> covering;          // stored cells covering it
+    if (!settled_by_footprint) {
+      const Aabb box = bounds_of(cell.vertices_m);
+      for (const CoveringTest& test : covering_tests[k])
+        if (covers_test(cell, box, *test.met, test.angle_deg, test.tol, test.neighbour))
+          covering.push_back(test.met->cell);
+      for (std::uint32_t id : covering_surfaces[k]) {
+        const auto it = surfaces_.find(union_find.find(id));
+        if (it != surfaces_.end() && it->second.detail &&
+            std::find(covering_surface.begin(), covering_surface.end(), &it->second) == covering_surface.end())
+          covering_surface.push_back(&it->second);
+      }
     }
-    const Coverage coverage = coverage_rule && (!covering[k].empty() || !covering_surface.empty())
-                                  ? coverage_of(cell, covering[k], covering_surface, config_.redundant_coverage)
+    const Coverage coverage = !settled_by_footprint && coverage_rule && (!covering.empty() || !covering_surface.empty())
+                                  ? coverage_of(cell, covering, covering_surface, config_.redundant_coverage)
                                   : Coverage{};
     const bool redundant = coverage.fraction >= config_.redundant_coverage;
     const std::uint32_t cover_surface = coverage.surface;
@@ -574,16 +619,14 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
       detail.footprint = Footprint(config_.footprint_resolution_m);
       surface.detail.emplace(std::move(detail));
       if (config_.dormant_after_frames > 0) dormancy_clock_.emplace(frame_id, root);
-    } else {
-      wake(surface);  // a CRF label already: live
+      raster = surface.detail->footprint.rasterise(project_to_basis(cell.vertices_m, surface.detail->basis));
     }
     touched.insert(root);
     report.cell_surfaces[fresh_input[k]] = root;
     surface.last_observed_frame = frame_id;
-    const double area = fresh_area[k];
     SurfaceDetail& detail = *surface.detail;
     const bool had_footprint = !detail.footprint.empty();
-    const double added = detail.footprint.add_polygon(project_to_basis(cell.vertices_m, detail.basis));
+    const double added = detail.footprint.add(raster);
     const double w = surface.observed_area_m2 + area;
     surface.mean_rgb = ((surface.mean_rgb * surface.observed_area_m2 + cell.mean_rgb * area) / w).cast<float>();
     surface.observed_area_m2 = static_cast<float>(w);
@@ -595,7 +638,7 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
     // below) instead of being fused: the map keeps the nearer, better view of each place.
     const bool supersedes =
         !redundant && !superseded[k].empty() &&
-        covers_at_least(cell, superseded[k], config_.redundant_coverage);
+        (covers_superseded ? *covers_superseded : covers_at_least(cell, superseded[k], config_.redundant_coverage));
     if (had_footprint && !supersedes &&
         (redundant || added < config_.fuse_new_area_fraction * area)) {
       ++report.fused_cells;

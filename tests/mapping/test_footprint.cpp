@@ -33,6 +33,25 @@ TEST(Footprint, ReObservationAddsOnlyTheNewPart) {
   EXPECT_NEAR(f.area_m2(), 1.5, 1e-9);
 }
 
+TEST(Footprint, RasteriseCountsTheNewAreaBeforeAddingIt) {
+  Footprint f(0.1);
+  f.add_polygon(rectangle(0.01, 0.01, 0.99, 0.99));  // 10 × 10 bits
+  // Shifted by half a metre and across the 3.2 m tile seam at s = 3.2: columns 0.55 … 3.45, of
+  // which 0.55 … 0.95 (5 columns) are set already: 25 new columns of 10 bits, 2.5 m².
+  const FootprintRaster raster = f.rasterise(rectangle(0.51, 0.01, 3.49, 0.99));
+  EXPECT_NEAR(f.new_area_m2(raster), 2.5, 1e-9);
+  EXPECT_NEAR(f.area_m2(), 1.0, 1e-9);  // counting marks nothing
+  EXPECT_FALSE(f.contains(3.45, 0.55));
+  EXPECT_NEAR(f.add(raster), 2.5, 1e-9);
+  EXPECT_NEAR(f.area_m2(), 3.5, 1e-9);
+  EXPECT_TRUE(f.contains(3.45, 0.55));
+  EXPECT_NEAR(f.new_area_m2(raster), 0.0, 1e-12);
+  // A raster of nothing (degenerate ring) adds nothing.
+  const std::vector<Eigen::Vector2d> line{{0.0, 0.0}, {1.0, 0.0}};
+  EXPECT_TRUE(f.rasterise(line).mask.empty());
+  EXPECT_EQ(f.add(f.rasterise(line)), 0.0);
+}
+
 TEST(Footprint, SquareAcrossTileSeamsAndNegativeCoordinates) {
   Footprint f(0.1);
   // [−3.29, 3.29]² holds centres −3.25 … 3.25: 66 × 66 bits across 3.2 m tiles on both axes.
