@@ -154,15 +154,31 @@ void PlaneMoments::add(const PlaneMoments& other) {
   sum_outer += other.sum_outer;
 }
 
-Plane3 PlaneMoments::fit(const Eigen::Vector3d& orientation) const {
-  const Eigen::Vector3d mean = sum / weight;
-  const Eigen::Matrix3d scatter = sum_outer / weight - mean * mean.transpose();
-  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver(scatter);
+namespace {
+
+/// The least-squares plane of moments through their mean: the normal is the scatter's eigenvector
+/// of the smallest eigenvalue, turned towards `orientation`; `solver` holds the scatter's
+/// decomposition.
+Plane3 plane_of(const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>& solver, const Eigen::Vector3d& mean,
+                const Eigen::Vector3d& orientation) {
   Plane3 plane;
   plane.normal = solver.eigenvectors().col(0).normalized();
   if (plane.normal.dot(orientation) < 0.0) plane.normal = -plane.normal;
   plane.offset = -plane.normal.dot(mean);
   return plane;
+}
+
+/// The moments' mean Σw·x / Σw and centred scatter Σw·x·xᵀ / Σw − mean·meanᵀ (weight > 0).
+std::pair<Eigen::Vector3d, Eigen::Matrix3d> mean_and_scatter(const PlaneMoments& m) {
+  const Eigen::Vector3d mean = m.sum / m.weight;
+  return {mean, m.sum_outer / m.weight - mean * mean.transpose()};
+}
+
+}  // namespace
+
+Plane3 PlaneMoments::fit(const Eigen::Vector3d& orientation) const {
+  const auto [mean, scatter] = mean_and_scatter(*this);
+  return plane_of(Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(scatter), mean, orientation);
 }
 
 double PlaneMoments::rms_distance_m(const Plane3& plane) const {
@@ -233,10 +249,9 @@ void fold_label(LabelState& into, const LabelState& from) {
                             : 0.0;
   // Refit only when the vertices span a plane (two non-negligible scatter eigenvalues).
   if (into.moments.weight > 0.0) {
-    const Eigen::Vector3d mean = into.moments.sum / into.moments.weight;
-    const Eigen::Matrix3d scatter = into.moments.sum_outer / into.moments.weight - mean * mean.transpose();
-    const Eigen::Vector3d eig = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(scatter).eigenvalues();
-    if (eig(1) > 1e-8) into.plane = into.moments.fit(into.plane.normal);
+    const auto [mean, scatter] = mean_and_scatter(into.moments);
+    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver(scatter);
+    if (solver.eigenvalues()(1) > 1e-8) into.plane = plane_of(solver, mean, into.plane.normal);
   }
 }
 
@@ -248,9 +263,8 @@ CrfMerger::CrfMerger(const MapConfig& config) : config_(config) {
                       std::to_string(config.max_normal_angle_deg));
 }
 
-EdgeEvaluation CrfMerger::evaluate(const MergeUnit& a, const LabelState& label_a,
-                                   const MergeUnit& b, const LabelState& label_b,
-                                   double boundary_m) const {
+EdgeEvaluation CrfMerger::evaluate_range(const MergeUnit& a, const LabelState& label_a,
+                                         const MergeUnit& b, const LabelState& label_b) const {
   EdgeEvaluation ev;
   const auto va = a.vertices;
   const auto vb = b.vertices;
@@ -296,7 +310,16 @@ EdgeEvaluation CrfMerger::evaluate(const MergeUnit& a, const LabelState& label_a
   if (!in_range) return ev;  // out of the variation range: the colour is not needed
   ev.colour_similarity = colour_similarity(lo.histogram, hi.histogram);
   ev.in_range = ev.colour_similarity >= config_.min_colour_similarity;
+  return ev;
+}
+
+EdgeEvaluation CrfMerger::evaluate(const MergeUnit& a, const LabelState& label_a,
+                                   const MergeUnit& b, const LabelState& label_b,
+                                   double boundary_m) const {
+  EdgeEvaluation ev = evaluate_range(a, label_a, b, label_b);
   if (!ev.in_range) return ev;  // never merged: the gain only orders the edges in range
+  const auto va = a.vertices;
+  const auto vb = b.vertices;
   // Energy gained (the greedy's visiting order): δ + φ + ψ of the edge's two cells.
   const double sigma = config_.residual_scale_m;
   const double delta_a = colour_similarity(a.histogram ? *a.histogram : label_a.histogram, label_b.histogram);
@@ -366,7 +389,7 @@ std::vector<std::pair<std::uint32_t, std::uint32_t>> CrfMerger::merge(
       // Planes may have moved since the round started: re-check the variation range (unless
       // neither label changed since the round's evaluation, which then still holds).
       if ((changed_in[sa] == round || changed_in[sb] == round) &&
-          !evaluate(units[edge.a], *state[sa], units[edge.b], *state[sb], edge.boundary_m).in_range)
+          !evaluate_range(units[edge.a], *state[sa], units[edge.b], *state[sb]).in_range)
         continue;
       const bool a_is_root = label_of[sa] < label_of[sb];
       const std::uint32_t root = a_is_root ? sa : sb, absorbed = a_is_root ? sb : sa;

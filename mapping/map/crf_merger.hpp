@@ -172,6 +172,11 @@ class CrfMerger {
   const MapConfig& config() const { return config_; }
 
  private:
+  /// evaluate() without the gain (0): all the greedy needs to re-check an edge whose labels
+  /// changed since the round's evaluation.
+  EdgeEvaluation evaluate_range(const MergeUnit& a, const LabelState& label_a, const MergeUnit& b,
+                                const LabelState& label_b) const;
+
   MapConfig config_;
 };
 
