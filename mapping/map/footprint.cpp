@@ -25,6 +25,31 @@ bool tile_less(const FootprintTile& tile, std::pair<std::int32_t, std::int32_t> 
   return std::pair(tile.s, tile.t) < key;
 }
 
+/// Calls f(ti, tj, bj, bits) for each tile row a raster's set pixels fall in: tile (ti, tj), its
+/// row bj, and the bits of that row the raster sets (bit i = grid column 32·ti + i). A row of the
+/// mask visits each tile it crosses once, from the first set pixel in it.
+template <class F>
+void for_each_tile_row(const FootprintRaster& raster, F&& f) {
+  for (int r = 0; r < raster.mask.rows; ++r) {
+    const auto* m = raster.mask.ptr<std::uint8_t>(r);
+    const std::int64_t j = raster.j0 + r;
+    const auto tj = static_cast<std::int32_t>(floor_div(j, N));
+    const auto bj = static_cast<int>(j - static_cast<std::int64_t>(tj) * N);
+    for (std::int64_t c = 0; c < raster.mask.cols;) {
+      if (!m[c]) {
+        ++c;
+        continue;
+      }
+      const auto ti = static_cast<std::int32_t>(floor_div(raster.i0 + c, N));
+      const std::int64_t first_column = static_cast<std::int64_t>(ti) * N;
+      std::uint32_t bits = 0;
+      for (; c < raster.mask.cols && raster.i0 + c < first_column + N; ++c)
+        if (m[c]) bits |= 1u << static_cast<int>(raster.i0 + c - first_column);
+      f(ti, tj, bj, bits);
+    }
+  }
+}
+
 }  // namespace
 
 Footprint::Footprint(double resolution_m) : resolution_m_(resolution_m) {
@@ -94,51 +119,20 @@ FootprintRaster Footprint::rasterise(std::span<const Eigen::Vector2d> ring) cons
 
 double Footprint::new_area_m2(const FootprintRaster& raster) const {
   std::size_t added = 0;
-  for (int r = 0; r < raster.mask.rows; ++r) {
-    const auto* m = raster.mask.ptr<std::uint8_t>(r);
-    const std::int64_t j = raster.j0 + r;
-    const auto tj = static_cast<std::int32_t>(floor_div(j, N));
-    const auto bj = static_cast<int>(j - static_cast<std::int64_t>(tj) * N);
-    for (std::int64_t c = 0; c < raster.mask.cols;) {
-      if (!m[c]) {
-        ++c;
-        continue;
-      }
-      const std::int64_t i = raster.i0 + c;
-      const auto ti = static_cast<std::int32_t>(floor_div(i, N));
-      const FootprintTile* tile = find_tile(ti, tj);
-      const std::uint32_t row = tile ? tile->rows[bj] : 0u;
-      for (; c < raster.mask.cols && floor_div(raster.i0 + c, N) == ti; ++c)
-        added += m[c] && ((row >> static_cast<int>(raster.i0 + c - static_cast<std::int64_t>(ti) * N)) & 1u) == 0;
-    }
-  }
+  for_each_tile_row(raster, [&](std::int32_t ti, std::int32_t tj, int bj, std::uint32_t bits) {
+    const FootprintTile* tile = find_tile(ti, tj);
+    added += static_cast<std::size_t>(std::popcount(bits & ~(tile ? tile->rows[bj] : 0u)));
+  });
   return static_cast<double>(added) * resolution_m_ * resolution_m_;
 }
 
 double Footprint::add(const FootprintRaster& raster) {
   std::size_t added = 0;
-  for (int r = 0; r < raster.mask.rows; ++r) {
-    const auto* m = raster.mask.ptr<std::uint8_t>(r);
-    const std::int64_t j = raster.j0 + r;
-    const auto tj = static_cast<std::int32_t>(floor_div(j, N));
-    const auto bj = static_cast<int>(j - static_cast<std::int64_t>(tj) * N);
-    for (std::int64_t c = 0; c < raster.mask.cols;) {
-      if (!m[c]) {
-        ++c;
-        continue;
-      }
-      const std::int64_t i = raster.i0 + c;
-      const auto ti = static_cast<std::int32_t>(floor_div(i, N));
-      std::uint32_t& row = tile_at(ti, tj).rows[bj];
-      // Fill the run of this tile row.
-      for (; c < raster.mask.cols && floor_div(raster.i0 + c, N) == ti; ++c) {
-        if (!m[c]) continue;
-        const std::uint32_t bit = 1u << static_cast<int>(raster.i0 + c - static_cast<std::int64_t>(ti) * N);
-        added += (row & bit) == 0;
-        row |= bit;
-      }
-    }
-  }
+  for_each_tile_row(raster, [&](std::int32_t ti, std::int32_t tj, int bj, std::uint32_t bits) {
+    std::uint32_t& row = tile_at(ti, tj).rows[bj];
+    added += static_cast<std::size_t>(std::popcount(bits & ~row));
+    row |= bits;
+  });
   return static_cast<double>(added) * resolution_m_ * resolution_m_;
 }
 

@@ -347,6 +347,7 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
   std::vector<const Planecell*> fresh;
   std::vector<std::size_t> fresh_input;  ///< index of fresh[k] in cells_world
   std::vector<double> fresh_area;
+  std::vector<Aabb> fresh_box;  ///< each new cell's bounds, computed once
   report.cell_surfaces.assign(cells_world.size(), kNoSurface);
   std::unordered_map<std::uint32_t, std::uint32_t> unit_of_extraction_id;
   for (std::size_t i = 0; i < cells_world.size(); ++i) {
@@ -363,6 +364,7 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
     fresh.push_back(&cell);
     fresh_input.push_back(i);
     fresh_area.push_back(polygon_area_m2(cell.vertices_m));
+    fresh_box.push_back(bounds_of(cell.vertices_m));
   }
   if (fresh.size() > 0xFFFFFFFFull - next_surface_id_)
     throw StorageError("global map: surface labels exhausted");
@@ -396,11 +398,7 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
     }
   } else {
     SpatialIndex frame_index(config_.index_cell_m);
-    std::vector<Aabb> fresh_box(fresh.size());  // each new cell's bounds, computed once
-    for (std::size_t k = 0; k < fresh.size(); ++k) {
-      fresh_box[k] = bounds_of(fresh[k]->vertices_m);
-      frame_index.insert(static_cast<std::uint32_t>(k), fresh_box[k]);
-    }
+    for (std::size_t k = 0; k < fresh.size(); ++k) frame_index.insert(static_cast<std::uint32_t>(k), fresh_box[k]);
     const auto box_of = [&](std::uint32_t j) { return fresh_box[j]; };
     for (std::size_t k = 0; k < fresh.size(); ++k)
       for (std::uint32_t j : frame_index.query(fresh_box[k].inflated(gap), box_of)) {
@@ -466,7 +464,7 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
   const double min_coverage_cos = std::cos(2.0 * config_.redundant_normal_angle_deg * M_PI / 180.0);
   for (std::size_t k = 0; k < fresh.size(); ++k) {
     const Planecell& cell = *fresh[k];
-    const Aabb box = bounds_of(cell.vertices_m);
+    const Aabb& box = fresh_box[k];
     const Aabb near_box = box.inflated(gap);
     // A surface covering the cell: its plane within the cell's own noise, and its σ_eff at most
     // redundant_precision_ratio × the cell's σ (floored like the surfaces' moments).
@@ -564,13 +562,16 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
     // might replace, is fused below whatever its coverage: the footprint's answer comes first
     // (rasterised before the footprint changes), the coverage test only for the cells it leaves.
     const auto root_it = surfaces_.find(root);
+    const auto raster_on = [&](const SurfaceDetail& detail) {  // the cell on a surface's footprint grid
+      return detail.footprint.rasterise(project_to_basis(cell.vertices_m, detail.basis));
+    };
     FootprintRaster raster;
     std::optional<bool> covers_superseded;  ///< covers_at_least(cell, superseded[k]), once computed
     bool settled_by_footprint = false;
     if (root_it != surfaces_.end()) {
       wake(root_it->second);  // a CRF label already: live
       const SurfaceDetail& detail = *root_it->second.detail;
-      raster = detail.footprint.rasterise(project_to_basis(cell.vertices_m, detail.basis));
+      raster = raster_on(detail);
       if (!detail.footprint.empty() &&
           detail.footprint.new_area_m2(raster) < config_.fuse_new_area_fraction * area)
         settled_by_footprint =
@@ -582,9 +583,8 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
     std::vector<const Surface*> covering_surface;  // alive after step 4's merges
     std::vector<const MapCell*> covering;          // stored cells covering it
     if (!settled_by_footprint) {
-      const Aabb box = bounds_of(cell.vertices_m);
       for (const CoveringTest& test : covering_tests[k])
-        if (covers_test(cell, box, *test.met, test.angle_deg, test.tol, test.neighbour))
+        if (covers_test(cell, fresh_box[k], *test.met, test.angle_deg, test.tol, test.neighbour))
           covering.push_back(test.met->cell);
       for (std::uint32_t id : covering_surfaces[k]) {
         const auto it = surfaces_.find(union_find.find(id));
@@ -619,7 +619,7 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
       detail.footprint = Footprint(config_.footprint_resolution_m);
       surface.detail.emplace(std::move(detail));
       if (config_.dormant_after_frames > 0) dormancy_clock_.emplace(frame_id, root);
-      raster = surface.detail->footprint.rasterise(project_to_basis(cell.vertices_m, surface.detail->basis));
+      raster = raster_on(*surface.detail);
     }
     touched.insert(root);
     report.cell_surfaces[fresh_input[k]] = root;
@@ -632,7 +632,7 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
     surface.observed_area_m2 = static_cast<float>(w);
     // Incremental: per-frame work stays local to the new cells.
     surface.area_m2 = static_cast<float>(surface.area_m2 + added);
-    surface.bounds.extend(bounds_of(cell.vertices_m));
+    surface.bounds.extend(fresh_box[k]);
     ++surface.observations;
     // A re-observation lying on much less precise stored cells is stored (and replaces them
     // below) instead of being fused: the map keeps the nearer, better view of each place.
