@@ -19,6 +19,12 @@ namespace {
 /// the index visits (extent / bucket)³ buckets per cell, so a corrupt polygon must not reach it.
 constexpr double kMaxCellExtentM = 200.0;
 
+/// Consolidation finds a due square's cells by scanning its surface's cells while the surface
+/// has at most this many cells per due square, and through the spatial index beyond: a query
+/// over an 8 m square visits a few hundred ids of all surfaces, a scan costs a vertex centroid
+/// per cell of the surface.
+constexpr std::size_t kConsolidateScanCells = 64;
+
 /// Why a polygon on `plane` cannot enter the map, or "" when it can: it needs a finite plane and
 /// ≥ 3 finite vertices of non-zero area, inside the index's cube (±`max_coordinate_m`) and at most
 /// kMaxCellExtentM across.
@@ -276,6 +282,7 @@ GlobalMap::GlobalMap(const MapConfig& config)
     };
     positive("consolidate_tile_m", config.consolidate_tile_m);
     positive("consolidate_resolution_m", config.consolidate_resolution_m);
+    positive("consolidate_square_reach_m", config.consolidate_square_reach_m);
     if (!(config.consolidate_max_hole_m2 >= 0.0) || !std::isfinite(config.consolidate_max_hole_m2))
       throw ConfigError("map.consolidate_max_hole_m2: must be >= 0, got " +
                         std::to_string(config.consolidate_max_hole_m2));
@@ -1009,16 +1016,58 @@ void GlobalMap::consolidate(std::uint64_t frame_id, std::set<std::uint32_t>& tou
                                    config_.consolidate_max_hole_m2};
   // Unions made this frame are not united again in a later square this frame.
   const std::uint32_t first_union = next_cell_id_;
+  std::vector<std::uint32_t> nearby, squares_near;
   for (const auto& [surface_id, tiles] : due) {
     Surface& surface = surfaces_.at(surface_id);
     const Eigen::Vector3d n = surface.plane.normal().normalized();
     const double e = surface.plane.offset() / surface.plane.normal().norm();
-    // Each due square's cells, each cell's square computed once.
+    // Each due square's cells: the surface's cells whose vertex centroid projects into the square
+    // and lies within consolidate_square_reach_m of the surface's plane.
+    wake(surface);
+    const PlaneBasis& basis = surface.detail->basis;
+    const double square_reach = config_.consolidate_square_reach_m;
     std::map<Tile, std::vector<const MapCell*>> in_square;
-    for (std::uint32_t id : surface.cells)
-      if (const MapCell& cell = cells_.at(id); id < first_union)
-        if (const Tile tile = tile_of(surface, cell); tiles.contains(tile))
-          in_square[tile].push_back(&cell);
+    auto sort_in = [&](std::uint32_t id, const MapCell& cell) {
+      if (id >= first_union) return;
+      const Eigen::Vector3d centroid = vertex_centroid(cell.vertices_m);
+      if (std::abs(n.dot(centroid) + e) > square_reach) return;
+      const Eigen::Vector2d st = basis.to_2d(centroid) / config_.consolidate_tile_m;
+      if (const Tile tile(static_cast<std::int64_t>(std::floor(st.x())),
+                          static_cast<std::int64_t>(std::floor(st.y())));
+          tiles.contains(tile))
+        in_square[tile].push_back(&cell);
+    };
+    const Eigen::Vector3d w = basis.u.cross(basis.v);
+    const double n_dot_w = n.dot(w);
+    if (surface.cells.size() <= kConsolidateScanCells * tiles.size() || std::abs(n_dot_w) < 0.5) {
+      for (std::uint32_t id : surface.cells) sort_in(id, cells_.at(id));
+    } else {
+      // A long surface (a road): the index finds the squares' cells near them, so a frame's work
+      // does not grow with the surface's length. The square lifted onto the surface's plane
+      // along the basis normal w, widened by the reach along w, holds them: X with
+      // basis.to_2d(X) in the square and |n·X + e| ≤ r lies at lift(s, t) + h·w with
+      // |h| ≤ r / |n·w| (the basis was made on an earlier fit of the plane: n·w ≈ 1).
+      const double lift_reach = square_reach / std::abs(n_dot_w);
+      squares_near.clear();
+      for (const Tile& tile : tiles) {
+        Aabb box;
+        for (int corner = 0; corner < 4; ++corner) {
+          const Eigen::Vector3d on_basis = basis.to_3d(
+              Eigen::Vector2d(static_cast<double>(tile.first + (corner & 1)),
+                              static_cast<double>(tile.second + (corner >> 1))) *
+              config_.consolidate_tile_m);
+          const Eigen::Vector3d lifted = on_basis - (n.dot(on_basis) + e) / n_dot_w * w;
+          box.extend(lifted + lift_reach * w);
+          box.extend(lifted - lift_reach * w);
+        }
+        index_.candidates(box, nearby);
+        squares_near.insert(squares_near.end(), nearby.begin(), nearby.end());
+      }
+      std::sort(squares_near.begin(), squares_near.end());
+      squares_near.erase(std::unique(squares_near.begin(), squares_near.end()), squares_near.end());
+      for (std::uint32_t id : squares_near)
+        if (const MapCell& cell = cells_.at(id); cell.surface == surface_id) sort_in(id, cell);
+    }
     for (const auto& [tile, cells] : in_square) {
       // The square's cells, once all of them are old, that the surface's plane describes.
       std::vector<const MapCell*> group;
