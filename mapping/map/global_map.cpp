@@ -1017,7 +1017,10 @@ void GlobalMap::consolidate(std::uint64_t frame_id, std::set<std::uint32_t>& tou
   // Unions made this frame are not united again in a later square this frame.
   const std::uint32_t first_union = next_cell_id_;
   std::vector<std::uint32_t> nearby, squares_near;
-  for (const auto& [surface_id, tiles] : due) {
+  for (const auto& due_surface : due) {
+    // (not a structured binding: clang 14 cannot capture one in the lambda below)
+    const std::uint32_t surface_id = due_surface.first;
+    const std::set<Tile>& tiles = due_surface.second;
     Surface& surface = surfaces_.at(surface_id);
     const Eigen::Vector3d n = surface.plane.normal().normalized();
     const double e = surface.plane.offset() / surface.plane.normal().norm();
