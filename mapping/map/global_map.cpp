@@ -995,12 +995,15 @@ void GlobalMap::consolidate(std::uint64_t frame_id, std::set<std::uint32_t>& tou
   using Tile = std::pair<std::int64_t, std::int64_t>;
   // A surface goes dormant only after its cells are consolidated (dormant_after_frames ≥
   // consolidate_after_frames): the wakes below are no-ops.
-  auto tile_of = [&](Surface& surface, const MapCell& cell) {
-    wake(surface);
-    const Eigen::Vector2d st =
-        surface.detail->basis.to_2d(vertex_centroid(cell.vertices_m)) / config_.consolidate_tile_m;
+  // The square of a point: its basis coordinates in units of consolidate_tile_m, floored.
+  auto square_of = [&](const PlaneBasis& basis, const Eigen::Vector3d& point) {
+    const Eigen::Vector2d st = basis.to_2d(point) / config_.consolidate_tile_m;
     return Tile(static_cast<std::int64_t>(std::floor(st.x())),
                 static_cast<std::int64_t>(std::floor(st.y())));
+  };
+  auto tile_of = [&](Surface& surface, const MapCell& cell) {
+    wake(surface);
+    return square_of(surface.detail->basis, vertex_centroid(cell.vertices_m));
   };
   // The squares of the cells coming of age now, by surface, in order.
   std::map<std::uint32_t, std::set<Tile>> due;
@@ -1025,8 +1028,8 @@ void GlobalMap::consolidate(std::uint64_t frame_id, std::set<std::uint32_t>& tou
     const Eigen::Vector3d n = surface.plane.normal().normalized();
     const double e = surface.plane.offset() / surface.plane.normal().norm();
     // Each due square's cells: the surface's cells whose vertex centroid projects into the square
-    // and lies within consolidate_square_reach_m of the surface's plane.
-    wake(surface);
+    // and lies within consolidate_square_reach_m of the surface's plane. (tile_of woke the
+    // surface: its detail holds the basis.)
     const PlaneBasis& basis = surface.detail->basis;
     const double square_reach = config_.consolidate_square_reach_m;
     std::map<Tile, std::vector<const MapCell*>> in_square;
@@ -1034,11 +1037,7 @@ void GlobalMap::consolidate(std::uint64_t frame_id, std::set<std::uint32_t>& tou
       if (id >= first_union) return;
       const Eigen::Vector3d centroid = vertex_centroid(cell.vertices_m);
       if (std::abs(n.dot(centroid) + e) > square_reach) return;
-      const Eigen::Vector2d st = basis.to_2d(centroid) / config_.consolidate_tile_m;
-      if (const Tile tile(static_cast<std::int64_t>(std::floor(st.x())),
-                          static_cast<std::int64_t>(std::floor(st.y())));
-          tiles.contains(tile))
-        in_square[tile].push_back(&cell);
+      if (const Tile tile = square_of(basis, centroid); tiles.contains(tile)) in_square[tile].push_back(&cell);
     };
     const Eigen::Vector3d w = basis.u.cross(basis.v);
     const double n_dot_w = n.dot(w);
@@ -1049,7 +1048,8 @@ void GlobalMap::consolidate(std::uint64_t frame_id, std::set<std::uint32_t>& tou
       // does not grow with the surface's length. The square lifted onto the surface's plane
       // along the basis normal w, widened by the reach along w, holds them: X with
       // basis.to_2d(X) in the square and |n·X + e| ≤ r lies at lift(s, t) + h·w with
-      // |h| ≤ r / |n·w| (the basis was made on an earlier fit of the plane: n·w ≈ 1).
+      // |h| ≤ r / |n·w| (the basis was made on an earlier fit of the plane: n·w ≈ 1; a plane
+      // turned more than 60° from its basis is scanned instead).
       const double lift_reach = square_reach / std::abs(n_dot_w);
       squares_near.clear();
       for (const Tile& tile : tiles) {
