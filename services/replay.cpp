@@ -457,6 +457,10 @@ nlohmann::json to_json(const ReplayReport& r) {
       split.push_back({{"gt", g.gt}, {"kind", g.kind}, {"area_m2", g.area_m2}, {"dominant_share", g.dominant_share},
                        {"labels", g.labels}, {"weak_texture", g.weak_texture}});
     out["merge_vs_ground_truth"]["largest_split_surfaces"] = split;
+    auto crossed = nlohmann::json::array();
+    for (const auto& c : m.crossed_by_kinds)
+      crossed.push_back({{"own_kind", c.own_kind}, {"label_kind", c.label_kind}, {"cells", c.cells}});
+    out["merge_vs_ground_truth"]["crossed_planes_by_kinds"] = crossed;
     if (m.plane_error_cells > 0) {  // GT planes known
       out["merge_vs_ground_truth"]["cross_merged_cells_resolvable"] = m.cross_merged_cells_resolvable;
       out["cell_planes_vs_ground_truth"] = {
@@ -531,6 +535,15 @@ std::string summary_text(const ReplayReport& r) {
       if (m.weak_texture.gt_surfaces > 0)
         out << "  of it on weakly textured surfaces (any kind): " << 100.0 * m.weak_texture.lost << " (they hold "
             << 100.0 * m.weak_texture.area << " % of GT area)\n";
+    }
+    if (!m.crossed_by_kinds.empty()) {
+      out << "  across GT planes by kind, cell's -> its label's (% of cells):";
+      const std::size_t shown = std::min<std::size_t>(m.crossed_by_kinds.size(), 6);
+      for (std::size_t k = 0; k < shown; ++k)
+        out << (k ? ", " : " ") << m.crossed_by_kinds[k].own_kind << " -> " << m.crossed_by_kinds[k].label_kind << " "
+            << 100.0 * m.crossed_by_kinds[k].cells;
+      if (shown < m.crossed_by_kinds.size()) out << ", ...";
+      out << "\n";
     }
     if (m.plane_error_cells > 0) {
       out << "  merged across GT planes further than 2 sigma_Z (the cell's own depth noise) from its GT plane: "

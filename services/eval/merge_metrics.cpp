@@ -187,15 +187,26 @@ MergeMetrics MergeEvaluator::finish() const {
     const Eigen::Vector3d p = c - own->second.signed_distance(c) * own->second.normal;
     return std::abs(other->second.signed_distance(p)) > 2.0 * static_cast<double>(s.depth_sigma_m);
   };
+  const auto kind_of = [this](std::uint16_t gt) {
+    const auto it = gt_kinds_.find(gt);
+    return it == gt_kinds_.end() ? std::string("unknown") : io::to_string(it->second);
+  };
   std::size_t crossed = 0, crossed_planes = 0, crossed_resolvable = 0;
+  std::map<std::pair<std::string, std::string>, std::size_t> crossed_kinds;
   for (std::size_t k = 0; k < kept.size(); ++k) {
     const std::uint16_t dominant = dominant_gt.at(final_labels[k]);
     if (dominant != kept[k]->gt) ++crossed;
     if (group(dominant) != group(kept[k]->gt)) {
       ++crossed_planes;
+      ++crossed_kinds[{kind_of(kept[k]->gt), kind_of(dominant)}];
       if (resolvable(*kept[k], dominant)) ++crossed_resolvable;
     }
   }
+  for (const auto& [kinds, count] : crossed_kinds)
+    m.crossed_by_kinds.push_back(
+        {kinds.first, kinds.second, static_cast<double>(count) / static_cast<double>(kept.size())});
+  std::stable_sort(m.crossed_by_kinds.begin(), m.crossed_by_kinds.end(),
+                   [](const auto& a, const auto& b) { return a.cells > b.cells; });
   m.cells = kept.size();
   if (!kept.empty()) {
     m.cross_merged_cells = static_cast<double>(crossed) / static_cast<double>(kept.size());

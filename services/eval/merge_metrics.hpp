@@ -101,6 +101,16 @@ struct MergeMetrics {
   /// The kSplitSurfacesReported largest of them by A(g), largest first.
   std::vector<SplitSurface> split_surfaces;
   static constexpr std::size_t kSplitSurfacesReported = 10;
+  /// Cells merged across GT planes (cross_merged_cells_between_planes) by the kind of their own
+  /// GT surface and the kind of their label's dominant GT surface (a door cell in a facade's label:
+  /// "door" → "facade"). `cells` is the share of all counted cells, so the shares add up to
+  /// cross_merged_cells_between_planes; sorted largest first.
+  struct CrossedKinds {
+    std::string own_kind;
+    std::string label_kind;
+    double cells = 0.0;
+  };
+  std::vector<CrossedKinds> crossed_by_kinds;
 };
 
 /// GT plane groups of a synthetic scene: surfaces a and b share a group when their planes agree

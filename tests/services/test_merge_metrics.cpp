@@ -2,6 +2,7 @@
 /// whose dominant labels, cross-merged cells and followed surface merges are counted by hand.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <functional>
 #include <numbers>
@@ -138,6 +139,57 @@ TEST(MergeMetrics, CrossMergesBeyondTwiceTheCellsDepthNoiseAreTheResolvableOnes)
   no_planes.add_frame(labels, gt, std::vector<Planecell>{square(0, std::sqrt(2.0f)), lifted(square(1, 1.0f), 0.03f, 0.02f)},
                       report);
   EXPECT_NEAR(no_planes.finish().cross_merged_cells_resolvable, 0.5, 1e-9);
+}
+
+TEST(MergeMetrics, CrossMergesAcrossGtPlanesAreBrokenDownByTheTwoKinds) {
+  // Label 10: 2 m² facade cells (GT 1) with a 1 m² door cell (GT 2, 3 cm proud), a 1 m² window
+  // cell (GT 3, likewise) and a 1 m² cell of the next facade (GT 6); label 20: a 2 m² car side
+  // (GT 4) with a 1 m² side of another car (GT 5: coplanar, 1 m away). GT 1 and GT 6 lie on one
+  // plane and touch, so the second facade's cell is across GT surfaces but not across GT planes.
+  // Of the 8 cells, the door, the window and the other car's side are across GT planes.
+  std::vector<io::SyntheticSurface> scene = {tile_at(1, 0.0, 0.0), tile_at(2, 3.0, 0.03), tile_at(3, 5.0, 0.03),
+                                             tile_at(4, 7.0, 1.0), tile_at(5, 9.0, 1.0), tile_at(6, 1.0, 0.0)};
+  MergeEvaluator eval;
+  eval.set_gt_planes(coplanar_groups(scene));
+  eval.set_gt_kinds({{1, io::SurfaceKind::kFacade}, {2, io::SurfaceKind::kDoor}, {3, io::SurfaceKind::kWindow},
+                     {4, io::SurfaceKind::kCar}, {5, io::SurfaceKind::kCar}, {6, io::SurfaceKind::kFacade}});
+  cv::Mat labels, gt;
+  const auto frame = [&](std::uint16_t gt_left, std::uint16_t gt_right, std::uint32_t surface) {
+    halves(labels, gt, 0, 1, gt_left, gt_right);
+    map::MergeReport report;
+    report.cell_surfaces = {surface, surface};
+    eval.add_frame(labels, gt, std::vector<Planecell>{square(0, std::sqrt(2.0f)), square(1, 1.0f)}, report);
+  };
+  frame(1, 2, 10);
+  frame(1, 3, 10);
+  frame(4, 5, 20);
+  frame(1, 6, 10);
+  const MergeMetrics m = eval.finish();
+  ASSERT_EQ(m.cells, 8u);
+  EXPECT_NEAR(m.cross_merged_cells, 4.0 / 8.0, 1e-9);
+  EXPECT_NEAR(m.cross_merged_cells_between_planes, 3.0 / 8.0, 1e-9);
+  ASSERT_EQ(m.crossed_by_kinds.size(), 3u);
+  double sum = 0.0;
+  for (const auto& c : m.crossed_by_kinds) {
+    EXPECT_NEAR(c.cells, 1.0 / 8.0, 1e-9);
+    sum += c.cells;
+  }
+  EXPECT_NEAR(sum, m.cross_merged_cells_between_planes, 1e-12);
+  const auto has = [&](const std::string& own, const std::string& label) {
+    return std::any_of(m.crossed_by_kinds.begin(), m.crossed_by_kinds.end(),
+                       [&](const auto& c) { return c.own_kind == own && c.label_kind == label; });
+  };
+  EXPECT_TRUE(has("door", "facade"));
+  EXPECT_TRUE(has("window", "facade"));
+  EXPECT_TRUE(has("car", "car"));
+  EXPECT_FALSE(has("facade", "car"));
+  // Two door cells in the facade's label come first, with twice the share.
+  frame(1, 2, 10);
+  const MergeMetrics more = eval.finish();
+  ASSERT_FALSE(more.crossed_by_kinds.empty());
+  EXPECT_EQ(more.crossed_by_kinds[0].own_kind, "door");
+  EXPECT_EQ(more.crossed_by_kinds[0].label_kind, "facade");
+  EXPECT_NEAR(more.crossed_by_kinds[0].cells, 2.0 / 10.0, 1e-9);
 }
 
 TEST(MergeMetrics, CellMergedIntoAnotherGtSurfacesLabelIsCrossMerged) {
