@@ -127,6 +127,11 @@ MergeMetrics MergeEvaluator::finish() const {
   }
   m.gt_surfaces = gt_label_area.size();
   m.labels = label_gt_area.size();
+  // A GT surface's kind as named in the report ("unknown" without kinds).
+  const auto kind_of = [this](std::uint16_t gt) {
+    const auto it = gt_kinds_.find(gt);
+    return it == gt_kinds_.end() ? std::string("unknown") : io::to_string(it->second);
+  };
   double total = 0.0, dominant = 0.0, one_label = 0.0;
   std::map<std::string, MergeMetrics::KindShare> kinds;
   for (const auto& [gt, per_label] : gt_label_area) {
@@ -139,8 +144,7 @@ MergeMetrics MergeEvaluator::finish() const {
     dominant += best;
     const bool one = best >= 0.9 * area;
     if (one) one_label += area;
-    const auto kind_it = gt_kinds_.find(gt);
-    const std::string kind = kind_it == gt_kinds_.end() ? "unknown" : io::to_string(kind_it->second);
+    const std::string kind = kind_of(gt);
     const auto add_to = [&](MergeMetrics::KindShare& share) {
       ++share.gt_surfaces;
       share.area += area;
@@ -186,10 +190,6 @@ MergeMetrics MergeEvaluator::finish() const {
     const Eigen::Vector3d c = s.centroid.cast<double>();
     const Eigen::Vector3d p = c - own->second.signed_distance(c) * own->second.normal;
     return std::abs(other->second.signed_distance(p)) > 2.0 * static_cast<double>(s.depth_sigma_m);
-  };
-  const auto kind_of = [this](std::uint16_t gt) {
-    const auto it = gt_kinds_.find(gt);
-    return it == gt_kinds_.end() ? std::string("unknown") : io::to_string(it->second);
   };
   std::size_t crossed = 0, crossed_planes = 0, crossed_resolvable = 0;
   std::map<std::pair<std::string, std::string>, std::size_t> crossed_kinds;
