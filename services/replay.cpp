@@ -166,6 +166,15 @@ ReplayReport run_replay(const ReplayOptions& options, const AppConfig& config) {
       }
     }
   }
+  // The scene's GT polygons (synthetic sequences): what the final map's accuracy is scored against.
+  std::vector<eval::GtPolygon> gt_polygons;
+  if (const auto scene = sequence.root / "scene.yaml"; std::filesystem::exists(scene)) {
+    try {
+      gt_polygons = eval::gt_polygons(io::read_scene_surfaces(scene));
+    } catch (const InputError& e) {
+      spdlog::warn("replay: map accuracy not scored: {}", e.what());
+    }
+  }
   // The sequence's own poses, read once: ground truth of the map completeness and of the
   // refinement's trajectory metrics.
   const bool has_gt_disparity = io::has_disparity_ground_truth(sequence);
@@ -359,6 +368,7 @@ ReplayReport run_replay(const ReplayOptions& options, const AppConfig& config) {
     if (metrics.cells > 0) report.merge_metrics = metrics;  // none from --threads (labels dropped)
   }
   if (!completeness_points.empty()) report.map_completeness = eval::map_completeness(global_map, completeness_points);
+  if (!gt_polygons.empty()) report.map_accuracy = eval::map_accuracy(global_map, gt_polygons);
   if (refinement) {  // pose refinement (issue 9): ground truth = the sequence's own poses
     report.refine = truth ? refinement->summary(truth->second, truth->first)
                           : refinement->summary({}, std::nullopt);
@@ -483,6 +493,12 @@ nlohmann::json to_json(const ReplayReport& r) {
         {"pixel_stride", kCompletenessPixelStride}, {"max_depth_m", kCompletenessMaxDepthM},
         {"within_0_10_m", c.within[0]}, {"within_0_20_m", c.within[1]}, {"within_0_50_m", c.within[2]}};
   }
+  if (r.map_accuracy) {
+    const auto& a = *r.map_accuracy;
+    out["map_accuracy_vs_ground_truth"] = {
+        {"cells", a.cells}, {"area_m2", a.area_m2}, {"samples_per_cell", map::kCoverageSamples},
+        {"within_0_10_m", a.within[0]}, {"within_0_20_m", a.within[1]}, {"within_0_50_m", a.within[2]}};
+  }
   if (r.voxel) {
     out["voxel"] = {{"mode", r.voxel_mode}, {"voxel_bytes", r.voxel_bytes},
                     {"voxel_ot_bytes", r.voxel_ot_bytes}, {"voxel_bt_bytes", r.voxel_bt_bytes},
@@ -566,6 +582,12 @@ std::string summary_text(const ReplayReport& r) {
     out << "  map vs GT points (every " << kCompletenessFrameStride << "th frame, depth <= " << kCompletenessMaxDepthM
         << " m): " << 100.0 * c.within[0] << " / " << 100.0 * c.within[1] << " / " << 100.0 * c.within[2]
         << " % within 10 / 20 / 50 cm of a stored planecell (" << c.points << " points)\n";
+  }
+  if (r.map_accuracy) {
+    const auto& a = *r.map_accuracy;
+    out << "  map area vs GT surfaces: " << 100.0 * a.within[0] << " / " << 100.0 * a.within[1] << " / "
+        << 100.0 * a.within[2] << " % of the stored cells' " << a.area_m2
+        << " m2 within 10 / 20 / 50 cm of a GT surface\n";
   }
   if (r.merge_ms.size() >= 20) {
     // Median merge time of the first and the last tenth of the frames: flat as the map grows?

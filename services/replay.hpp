@@ -15,6 +15,7 @@
 #include "core/config/app_config.hpp"
 #include "io/map_store.hpp"
 #include "mapping/map/global_map.hpp"
+#include "services/eval/map_accuracy.hpp"
 #include "services/eval/map_completeness.hpp"
 #include "services/eval/merge_metrics.hpp"
 #include "services/latency_stats.hpp"
@@ -110,6 +111,9 @@ struct ReplayReport {
   /// The final map against GT points of every kCompletenessFrameStride-th frame of this run
   /// (sequences with GT disparity and poses; see eval::map_completeness).
   std::optional<eval::MapCompleteness> map_completeness;
+  /// The final map's stored cells against the scene's GT polygons (synthetic sequences with
+  /// scene.yaml; see eval::map_accuracy): how much of the map lies on a real surface.
+  std::optional<eval::MapAccuracy> map_accuracy;
   std::vector<std::pair<std::string, LatencySummary>> stage_latency;  ///< per stage, ms
                                                                       ///< (threaded: + end_to_end)
   /// Per stage: CPU time of the thread that ran it and first-touch page faults, per frame.

@@ -263,6 +263,13 @@ TEST_F(ReplayTest, GtDisparityReplacesSgmWithTheSequencesGroundTruth) {
   ASSERT_TRUE(cut.map_completeness.has_value());
   EXPECT_EQ(cut.map_completeness->points, report.map_completeness->points);
   EXPECT_LT(cut.map_completeness->within[2], held[2] - 0.1);
+  // Map accuracy against the scene's GT polygons: exact planes lie on the surfaces they came from.
+  ASSERT_TRUE(report.map_accuracy.has_value());
+  EXPECT_EQ(report.map_accuracy->cells, report.cells_in_map);
+  const auto& on = report.map_accuracy->within;
+  EXPECT_GT(on[0], 0.95);
+  EXPECT_LE(on[0], on[1]);
+  EXPECT_LE(on[1], on[2]);
 
   options.observe = nullptr;
   options.threads = true;
@@ -287,6 +294,17 @@ TEST_F(ReplayTest, CorruptGtDisparityDropsTheCompletenessScoreNotTheMap) {
   EXPECT_EQ(report.frames, 4u);
   EXPECT_EQ(report.cells_in_map, scored.cells_in_map);  // the same map
   EXPECT_FALSE(report.map_completeness.has_value());
+}
+
+TEST_F(ReplayTest, CorruptSceneDropsTheAccuracyScoreNotTheMap) {
+  ReplayOptions options = street_options();
+  const ReplayReport scored = run_replay(options, config_);
+  ASSERT_TRUE(scored.map_accuracy.has_value());
+  std::ofstream(scratch_ / "seq" / "scene.yaml", std::ios::trunc) << "surfaces: [ {id: 1, kind: nonsense";
+  const ReplayReport report = run_replay(options, config_);
+  EXPECT_EQ(report.cells_in_map, scored.cells_in_map);  // the same map
+  EXPECT_FALSE(report.map_accuracy.has_value());
+  EXPECT_TRUE(report.map_completeness.has_value());  // the other scores stay
 }
 
 TEST_F(ReplayTest, CorruptGtSurfaceIdsDropTheMergeScoresNotTheMap) {

@@ -1,0 +1,51 @@
+#pragma once
+/// How much of the map lies where the world has a surface: the stored planecells' area against
+/// the renderer's GT surfaces (scene.yaml). The counterpart of MapCompleteness, which scores GT
+/// points against the map: a map can hold every GT point and still claim surfaces where there are
+/// none (a far view's cell spanning the gap between two parked cars), which a planner would take
+/// for an obstacle. Synthetic sequences only (they have exact GT polygons).
+#include <Eigen/Core>
+#include <array>
+#include <span>
+#include <vector>
+
+#include "core/plane.hpp"
+#include "io/synthetic/synthetic_world.hpp"
+#include "mapping/map/coverage.hpp"
+#include "mapping/map/global_map.hpp"
+#include "services/eval/map_completeness.hpp"
+
+namespace planecell::services::eval {
+
+/// A GT surface as the accuracy test reads it: its plane and its convex polygon in the plane's
+/// basis (X = origin + s·u + t·v), with the polygon's world bounds.
+struct GtPolygon {
+  Plane3 plane;
+  Eigen::Vector3d origin = Eigen::Vector3d::Zero();
+  Eigen::Vector3d u = Eigen::Vector3d::UnitX();
+  Eigen::Vector3d v = Eigen::Vector3d::UnitY();
+  std::vector<Eigen::Vector2d> polygon;  ///< (s, t), ≥ 3 corners
+  Eigen::Vector3d box_min = Eigen::Vector3d::Zero(), box_max = Eigen::Vector3d::Zero();
+};
+
+/// The GT polygons of `surfaces` (those with fewer than 3 corners are left out).
+std::vector<GtPolygon> gt_polygons(std::span<const io::SyntheticSurface> surfaces);
+
+/// Distance (m) from `point` to the GT polygon: with (s, t) = ((X − o)·u, (X − o)·v) and
+/// h = n·X + e, |h| when (s, t) lies inside the polygon, else √(h² + d²) with d the 2D distance
+/// of (s, t) to the polygon's boundary.
+double distance_to_gt_polygon(const Eigen::Vector3d& point, const GtPolygon& gt);
+
+struct MapAccuracy {
+  double area_m2 = 0.0;  ///< stored planecells' area scored (every stored cell's polygon)
+  std::size_t cells = 0;  ///< stored cells scored
+  /// Share of that area whose points lie within kCompletenessDistancesM[i] of a GT surface:
+  ///   Σ_c area_c · (points of c within d) / (points of c)  /  Σ_c area_c,
+  /// each cell sampled on its coverage_grid (kCoverageSamples points over its bounding square).
+  std::array<double, kCompletenessDistancesM.size()> within{};
+};
+
+/// Scores every stored cell of `map` against `gt` (no cells: area 0, all shares 0).
+MapAccuracy map_accuracy(const map::GlobalMap& map, std::span<const GtPolygon> gt);
+
+}  // namespace planecell::services::eval
