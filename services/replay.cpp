@@ -369,6 +369,12 @@ ReplayReport run_replay(const ReplayOptions& options, const AppConfig& config) {
   }
   if (!completeness_points.empty()) report.map_completeness = eval::map_completeness(global_map, completeness_points);
   if (!gt_polygons.empty()) report.map_accuracy = eval::map_accuracy(global_map, gt_polygons);
+  if (voxel_map && (!gt_polygons.empty() || !completeness_points.empty())) {
+    const std::vector<Eigen::Vector3d> centres = voxel_map->occupied_centres();
+    if (!gt_polygons.empty()) report.voxel_accuracy = eval::voxel_accuracy(centres, gt_polygons);
+    if (!completeness_points.empty())
+      report.voxel_completeness = eval::voxel_completeness(centres, voxel_map->resolution_m(), completeness_points);
+  }
   if (refinement) {  // pose refinement (issue 9): ground truth = the sequence's own poses
     report.refine = truth ? refinement->summary(truth->second, truth->first)
                           : refinement->summary({}, std::nullopt);
@@ -503,6 +509,16 @@ nlohmann::json to_json(const ReplayReport& r) {
     out["voxel"] = {{"mode", r.voxel_mode}, {"voxel_bytes", r.voxel_bytes},
                     {"voxel_ot_bytes", r.voxel_ot_bytes}, {"voxel_bt_bytes", r.voxel_bt_bytes},
                     {"voxel_leaves", r.voxel_leaves}};
+    if (r.voxel_accuracy) {
+      const auto& a = *r.voxel_accuracy;
+      out["voxel"]["accuracy_vs_ground_truth"] = {
+          {"voxels", a.voxels}, {"within_0_10_m", a.within[0]}, {"within_0_20_m", a.within[1]}, {"within_0_50_m", a.within[2]}};
+    }
+    if (r.voxel_completeness) {
+      const auto& c = *r.voxel_completeness;
+      out["voxel"]["completeness_vs_ground_truth"] = {
+          {"points", c.points}, {"within_0_10_m", c.within[0]}, {"within_0_20_m", c.within[1]}, {"within_0_50_m", c.within[2]}};
+    }
   }
   if (const auto c = compare_with_voxel(r)) {
     auto& vs = out["map_vs_voxel"] = {{"ram_times_smaller", c->ram_times_smaller}};
@@ -601,6 +617,16 @@ std::string summary_text(const ReplayReport& r) {
     out << "  voxel baseline (" << r.voxel_mode << "): " << r.voxel_leaves << " voxels, "
         << r.voxel_bytes / 1024.0 << " KiB in RAM, .ot " << r.voxel_ot_bytes / 1024.0 << " KiB, .bt "
         << r.voxel_bt_bytes / 1024.0 << " KiB\n";
+  if (r.voxel_completeness) {
+    const auto& c = *r.voxel_completeness;
+    out << "  GT points vs voxels: " << 100.0 * c.within[0] << " / " << 100.0 * c.within[1] << " / "
+        << 100.0 * c.within[2] << " % within 10 / 20 / 50 cm of an occupied voxel\n";
+  }
+  if (r.voxel_accuracy) {
+    const auto& a = *r.voxel_accuracy;
+    out << "  voxels vs GT surfaces: " << 100.0 * a.within[0] << " / " << 100.0 * a.within[1] << " / "
+        << 100.0 * a.within[2] << " % of the occupied voxels' centres within 10 / 20 / 50 cm of a GT surface\n";
+  }
   if (const auto c = compare_with_voxel(r)) {
     out << "  map vs voxel baseline: " << c->ram_times_smaller << "x smaller in RAM";
     if (c->store_times_smaller_than_ot)

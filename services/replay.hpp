@@ -114,6 +114,10 @@ struct ReplayReport {
   /// The final map's stored cells against the scene's GT polygons (synthetic sequences with
   /// scene.yaml; see eval::map_accuracy): how much of the map lies on a real surface.
   std::optional<eval::MapAccuracy> map_accuracy;
+  /// The voxel baseline (--voxel) scored the same two ways: its occupied voxels against the GT
+  /// polygons, and the same GT points as map_completeness against its voxels.
+  std::optional<eval::VoxelAccuracy> voxel_accuracy;
+  std::optional<eval::MapCompleteness> voxel_completeness;
   std::vector<std::pair<std::string, LatencySummary>> stage_latency;  ///< per stage, ms
                                                                       ///< (threaded: + end_to_end)
   /// Per stage: CPU time of the thread that ran it and first-touch page faults, per frame.

@@ -128,6 +128,22 @@ std::size_t VoxelMap::occupied_voxels() const {
   return count;
 }
 
+std::vector<Eigen::Vector3d> VoxelMap::occupied_centres() const {
+  std::vector<Eigen::Vector3d> centres;
+  const double r = tree_->getResolution();
+  const unsigned max_depth = tree_->getTreeDepth();
+  for (auto it = tree_->begin_leafs(), end = tree_->end_leafs(); it != end; ++it) {
+    if (!tree_->isNodeOccupied(*it)) continue;
+    const auto c = it.getCoordinate();
+    const int n = 1 << (max_depth - it.getDepth());  // voxels along each edge of the leaf
+    const Eigen::Vector3d first = Eigen::Vector3d(c.x(), c.y(), c.z()) - Eigen::Vector3d::Constant(0.5 * (n - 1) * r);
+    for (int i = 0; i < n; ++i)
+      for (int j = 0; j < n; ++j)
+        for (int k = 0; k < n; ++k) centres.push_back(first + r * Eigen::Vector3d(i, j, k));
+  }
+  return centres;
+}
+
 VoxelMapStats VoxelMap::stats() const {
   VoxelMapStats s;
   s.occupied_voxels = occupied_voxels();

@@ -72,6 +72,10 @@ class VoxelMap {
   /// Sizes of the map; prints nothing (OctoMap's debug-enabled writeBinaryConst is not called).
   VoxelMapStats stats() const;
   std::size_t occupied_voxels() const;
+  /// The centres of the occupied voxels at full resolution (a pruned leaf of edge 2^k·r stands for
+  /// its 8^k voxels, each listed), in OctoMap's leaf order.
+  std::vector<Eigen::Vector3d> occupied_centres() const;
+  double resolution_m() const { return config_.resolution_m; }
   /// Colour of the occupied voxel containing `point`, nullopt when none.
   std::optional<Rgb> colour_at(const Eigen::Vector3d& point) const;
   const octomap::ColorOcTree& tree() const { return *tree_; }

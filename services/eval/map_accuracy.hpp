@@ -48,4 +48,23 @@ struct MapAccuracy {
 /// Scores every stored cell of `map` against `gt` (no cells: area 0, all shares 0).
 MapAccuracy map_accuracy(const map::GlobalMap& map, std::span<const GtPolygon> gt);
 
+/// The voxel baseline scored like the map, voxel by voxel (each occupied voxel stands for the
+/// same area of surface at one resolution).
+struct VoxelAccuracy {
+  std::size_t voxels = 0;  ///< occupied voxels scored
+  /// Share of the voxels whose centre lies within kCompletenessDistancesM[i] of a GT surface
+  /// (a 10 cm voxel a GT surface passes through has its centre within √3·5 cm ≈ 8.7 cm of it).
+  std::array<double, kCompletenessDistancesM.size()> within{};
+};
+
+/// Scores the occupied voxels' `centres` against `gt` (none: 0 voxels, all shares 0).
+VoxelAccuracy voxel_accuracy(std::span<const Eigen::Vector3d> centres, std::span<const GtPolygon> gt);
+
+/// GT points scored against the voxel baseline as map_completeness scores them against the map:
+/// a point is held within d when an occupied voxel's cube (centre ± resolution_m/2 on each axis)
+/// lies within d of it (0 inside the cube). `centres` are voxel centres on OctoMap's grid
+/// ((k + ½)·resolution_m per axis). Throws InputError on a non-positive resolution.
+MapCompleteness voxel_completeness(std::span<const Eigen::Vector3d> centres, double resolution_m,
+                                   std::span<const Eigen::Vector3d> points);
+
 }  // namespace planecell::services::eval

@@ -4,7 +4,9 @@
 
 #include <octomap/ColorOcTree.h>
 
+#include <algorithm>
 #include <cmath>
+#include <tuple>
 #include <sstream>
 
 #include "core/error.hpp"
@@ -49,6 +51,16 @@ TEST_P(VoxelModes, PlanePointsOccupyTheExpectedVoxelsWithTheirColour) {
   EXPECT_EQ(sizes.memory_bytes, map.tree().memoryUsage());
   EXPECT_GT(sizes.ot_bytes, sizes.bt_bytes);  // .ot carries colour, .bt two bits per node
   EXPECT_GT(sizes.bt_bytes, 0u);
+  // The occupied voxels' centres: ((i + ½)·10 cm, (j + ½)·10 cm, 5.05 m), i, j = 0..9.
+  auto centres = map.occupied_centres();
+  ASSERT_EQ(centres.size(), 100u);
+  std::sort(centres.begin(), centres.end(), [](const auto& a, const auto& b) {
+    return std::tie(a.x(), a.y()) < std::tie(b.x(), b.y());
+  });
+  for (int i = 0; i < 10; ++i)
+    for (int j = 0; j < 10; ++j)
+      EXPECT_TRUE(centres[10 * i + j].isApprox(Eigen::Vector3d(0.05 + 0.1 * i, 0.05 + 0.1 * j, 5.05), 1e-6))
+          << i << ", " << j << ": " << centres[10 * i + j].transpose();
 }
 
 /// .bt size of the tree as OctoMap itself writes it (prints a debug line on stderr).
@@ -94,6 +106,27 @@ TEST(VoxelMapTest, VoxelColourIsTheMeanOfItsPoints) {
   map.insert(pts);
   EXPECT_EQ(map.occupied_voxels(), 1u);
   EXPECT_EQ(*map.colour_at({0.05, 0.05, 0.05}), (Rgb{150, 10, 51}));  // 50.5 rounds to 51
+}
+
+TEST(VoxelMapTest, APrunedLeafListsTheCentresOfAllItsVoxels) {
+  VoxelMap map;
+  ColouredPoints pts;  // one point of one colour in each voxel of the 20 cm cube at the origin
+  for (int i = 0; i < 8; ++i) {
+    pts.points_m.emplace_back(0.05f + 0.1f * (i & 1), 0.05f + 0.1f * ((i >> 1) & 1), 0.05f + 0.1f * (i >> 2));
+    pts.rgb.push_back(Rgb{90, 90, 90});
+  }
+  map.insert(pts);
+  const_cast<octomap::ColorOcTree&>(map.tree()).prune();  // eight equal children: one 20 cm leaf
+  std::size_t leaves = 0;
+  for (auto it = map.tree().begin_leafs(); it != map.tree().end_leafs(); ++it) ++leaves;
+  ASSERT_EQ(leaves, 1u);
+  auto centres = map.occupied_centres();
+  ASSERT_EQ(centres.size(), 8u);
+  for (int i = 0; i < 8; ++i) {
+    const Eigen::Vector3d want(pts.points_m[i].cast<double>());
+    EXPECT_EQ(std::count_if(centres.begin(), centres.end(), [&](const auto& c) { return c.isApprox(want, 1e-6); }), 1)
+        << want.transpose();
+  }
 }
 
 TEST(VoxelMapTest, RejectsMismatchedInputAndBadConfig) {

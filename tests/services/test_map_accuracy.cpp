@@ -4,6 +4,7 @@
 #include <cmath>
 #include <vector>
 
+#include "core/error.hpp"
 #include "services/eval/map_accuracy.hpp"
 #include "support/planecell_fixtures.hpp"
 
@@ -67,6 +68,41 @@ TEST(MapAccuracy, ACellAcrossTheEdgeOfAGtSurfaceCountsItsPointsOneByOne) {
   EXPECT_NEAR(a.within[1], 0.60, 0.09);
   EXPECT_NEAR(a.within[2], 0.75, 0.09);
   EXPECT_LT(a.within[0], a.within[2]);
+}
+
+TEST(VoxelMapAccuracy, CountsTheVoxelsWhoseCentreLiesNearAGtSurface) {
+  const std::vector<Eigen::Vector3d> centres = {
+      {0.05, 0.05, 5.05},  // 5 cm in front of the square
+      {0.05, 0.05, 5.15},  // 15 cm
+      {0.05, 0.05, 7.05},  // 2.05 m
+      {6.05, 0.05, 5.05},  // beyond the edge x = 5: √(1.05² + 0.05²) m
+  };
+  const VoxelAccuracy a = voxel_accuracy(centres, gt_square());
+  EXPECT_EQ(a.voxels, 4u);
+  EXPECT_DOUBLE_EQ(a.within[0], 0.25);
+  EXPECT_DOUBLE_EQ(a.within[1], 0.50);
+  EXPECT_DOUBLE_EQ(a.within[2], 0.50);
+  EXPECT_EQ(voxel_accuracy({}, gt_square()).voxels, 0u);
+}
+
+TEST(VoxelMapCompleteness, AGtPointIsHeldByTheNearestOccupiedVoxelCube) {
+  // Two 10 cm voxels: [0, 0.1]³ and [1, 1.1] × [0, 0.1]².
+  const std::vector<Eigen::Vector3d> centres = {{0.05, 0.05, 0.05}, {1.05, 0.05, 0.05}};
+  const std::vector<Eigen::Vector3d> points = {
+      {0.02, 0.03, 0.04},  // inside the first: 0
+      {0.17, 0.05, 0.05},  // 7 cm past its face x = 0.1
+      {0.05, 0.05, 0.28},  // 18 cm past its face z = 0.1
+      {0.85, 0.05, 0.05},  // 15 cm from the second's face x = 1, 75 cm from the first's
+      {0.05, 0.05, 0.45},  // 35 cm above the first
+      {0.50, 0.05, 1.50},  // √(0.4² + 1.4²) m from the first's nearest edge: held by neither
+  };
+  const MapCompleteness c = voxel_completeness(centres, 0.1, points);
+  EXPECT_EQ(c.points, 6u);
+  EXPECT_DOUBLE_EQ(c.within[0], 2.0 / 6.0);
+  EXPECT_DOUBLE_EQ(c.within[1], 4.0 / 6.0);
+  EXPECT_DOUBLE_EQ(c.within[2], 5.0 / 6.0);
+  EXPECT_THROW(voxel_completeness(centres, 0.0, points), InputError);
+  EXPECT_EQ(voxel_completeness(centres, 0.1, {}).points, 0u);
 }
 
 }  // namespace

@@ -183,6 +183,14 @@ TEST_F(ReplayTest, VoxelBaselineIsFedTheSameFrames) {
   EXPECT_GT(report.voxel_bytes, report.voxel_bt_bytes);
   EXPECT_GT(report.voxel_ot_bytes, report.voxel_bt_bytes);  // colour costs bytes
   EXPECT_EQ(to_json(report)["voxel"]["voxel_leaves"].get<std::size_t>(), report.voxel_leaves);
+  // Scored like the map: every occupied voxel against the scene, the map's GT points against them.
+  ASSERT_TRUE(report.voxel_accuracy.has_value());
+  EXPECT_EQ(report.voxel_accuracy->voxels, report.voxel_leaves);
+  ASSERT_TRUE(report.voxel_completeness.has_value() && report.map_completeness.has_value());
+  EXPECT_EQ(report.voxel_completeness->points, report.map_completeness->points);
+  EXPECT_GT(report.voxel_completeness->within[2], 0.9);  // SGM's points of the same frames
+  EXPECT_DOUBLE_EQ(to_json(report)["voxel"]["accuracy_vs_ground_truth"]["within_0_10_m"].get<double>(),
+                   report.voxel_accuracy->within[0]);
   // Without a store only the RAM ratio is reported.
   const auto ram_only = to_json(report)["map_vs_voxel"];
   EXPECT_DOUBLE_EQ(ram_only["ram_times_smaller"].get<double>(),
