@@ -154,6 +154,7 @@ MapCompleteness voxel_completeness(std::span<const Eigen::Vector3d> centres, dou
   const int shells = static_cast<int>(std::ceil(reach / resolution_m)) + 1;
   std::array<std::size_t, kCompletenessDistancesM.size()> hits{};
   for (const Eigen::Vector3d& p : points) {
+    if (!p.allFinite()) continue;  // scored, held by nothing
     const Eigen::Vector3i home = (p / resolution_m).array().floor().cast<int>();
     // Shell r (Chebyshev distance r in voxels) lies at least (r − 1)·resolution from p, which is
     // inside voxel `home`: stop once that exceeds the best distance found or the reach.

@@ -63,7 +63,8 @@ VoxelAccuracy voxel_accuracy(std::span<const Eigen::Vector3d> centres, std::span
 /// GT points scored against the voxel baseline as map_completeness scores them against the map:
 /// a point is held within d when an occupied voxel's cube (centre ± resolution_m/2 on each axis)
 /// lies within d of it (0 inside the cube). `centres` are voxel centres on OctoMap's grid
-/// ((k + ½)·resolution_m per axis). Throws InputError on a non-positive resolution.
+/// ((k + ½)·resolution_m per axis); a non-finite point counts as held by nothing. Throws
+/// InputError on a non-positive resolution.
 MapCompleteness voxel_completeness(std::span<const Eigen::Vector3d> centres, double resolution_m,
                                    std::span<const Eigen::Vector3d> points);
 

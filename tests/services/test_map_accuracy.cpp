@@ -102,6 +102,8 @@ TEST(VoxelMapCompleteness, AGtPointIsHeldByTheNearestOccupiedVoxelCube) {
   EXPECT_DOUBLE_EQ(c.within[1], 4.0 / 6.0);
   EXPECT_DOUBLE_EQ(c.within[2], 5.0 / 6.0);
   EXPECT_THROW(voxel_completeness(centres, 0.0, points), InputError);
+  const std::vector<Eigen::Vector3d> nan_point = {{std::nan(""), 0.0, 0.0}, {0.02, 0.03, 0.04}};
+  EXPECT_DOUBLE_EQ(voxel_completeness(centres, 0.1, nan_point).within[2], 0.5);  // scored, not held
   EXPECT_EQ(voxel_completeness(centres, 0.1, {}).points, 0u);
 }
 
