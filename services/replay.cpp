@@ -140,41 +140,39 @@ ReplayReport run_replay(const ReplayOptions& options, const AppConfig& config) {
   std::unique_ptr<voxel::VoxelMap> voxel_map;
   if (options.voxel) voxel_map = std::make_unique<voxel::VoxelMap>(config.voxel);
 
+  // The scene's surfaces (synthetic sequences), read once: the GT planes of the merge scores and
+  // the GT polygons of the map accuracy.
+  std::optional<std::vector<io::SyntheticSurface>> scene_surfaces;
+  if (const auto scene = sequence.root / "scene.yaml"; std::filesystem::exists(scene)) {
+    try {
+      scene_surfaces = io::read_scene_surfaces(scene);
+    } catch (const InputError& e) {
+      spdlog::warn("replay: {}; map accuracy not scored, cross-merging counted per GT surface only", e.what());
+    }
+  }
   std::optional<eval::MergeEvaluator> merge_evaluator;
   if (io::has_surface_ground_truth(sequence)) {
     merge_evaluator.emplace();
-    // The scene's surface planes (synthetic sequences): coplanar touching GT surfaces form one GT
-    // plane for the cross-merge count. Without a readable scene.yaml, every surface is its own.
-    const std::filesystem::path scene = sequence.root / "scene.yaml";
-    if (std::filesystem::exists(scene)) {
-      try {
-        const auto surfaces = io::read_scene_surfaces(scene);
-        merge_evaluator->set_gt_planes(eval::coplanar_groups(surfaces));
-        std::unordered_map<std::uint16_t, Plane3> planes;
-        std::unordered_map<std::uint16_t, io::SurfaceKind> kinds;
-        std::unordered_set<std::uint16_t> weak_texture;
-        for (const auto& surface : surfaces) {
-          planes.emplace(surface.id, surface.plane);
-          kinds.emplace(surface.id, surface.kind);
-          if (io::is_weakly_textured(surface.texture)) weak_texture.insert(surface.id);
-        }
-        merge_evaluator->set_gt_surface_planes(std::move(planes));
-        merge_evaluator->set_gt_kinds(std::move(kinds));
-        merge_evaluator->set_gt_weak_texture(std::move(weak_texture));
-      } catch (const InputError& e) {
-        spdlog::warn("replay: {}; cross-merging is counted per GT surface only", e.what());
+    // Coplanar touching GT surfaces form one GT plane for the cross-merge count. Without a
+    // readable scene.yaml, every surface is its own.
+    if (scene_surfaces) {
+      const auto& surfaces = *scene_surfaces;
+      merge_evaluator->set_gt_planes(eval::coplanar_groups(surfaces));
+      std::unordered_map<std::uint16_t, Plane3> planes;
+      std::unordered_map<std::uint16_t, io::SurfaceKind> kinds;
+      std::unordered_set<std::uint16_t> weak_texture;
+      for (const auto& surface : surfaces) {
+        planes.emplace(surface.id, surface.plane);
+        kinds.emplace(surface.id, surface.kind);
+        if (io::is_weakly_textured(surface.texture)) weak_texture.insert(surface.id);
       }
+      merge_evaluator->set_gt_surface_planes(std::move(planes));
+      merge_evaluator->set_gt_kinds(std::move(kinds));
+      merge_evaluator->set_gt_weak_texture(std::move(weak_texture));
     }
   }
-  // The scene's GT polygons (synthetic sequences): what the final map's accuracy is scored against.
-  std::vector<eval::GtPolygon> gt_polygons;
-  if (const auto scene = sequence.root / "scene.yaml"; std::filesystem::exists(scene)) {
-    try {
-      gt_polygons = eval::gt_polygons(io::read_scene_surfaces(scene));
-    } catch (const InputError& e) {
-      spdlog::warn("replay: map accuracy not scored: {}", e.what());
-    }
-  }
+  const std::vector<eval::GtPolygon> gt_polygons =
+      scene_surfaces ? eval::gt_polygons(*scene_surfaces) : std::vector<eval::GtPolygon>{};
   // The sequence's own poses, read once: ground truth of the map completeness and of the
   // refinement's trajectory metrics.
   const bool has_gt_disparity = io::has_disparity_ground_truth(sequence);

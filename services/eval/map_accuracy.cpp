@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
-
 #include <unordered_map>
 #include <unordered_set>
 
@@ -18,80 +17,30 @@ std::vector<GtPolygon> gt_polygons(std::span<const io::SyntheticSurface> surface
   out.reserve(surfaces.size());
   for (const auto& s : surfaces) {
     if (s.polygon.size() < 3) continue;
-    GtPolygon g{s.plane, s.origin, s.u_axis, s.v_axis, s.polygon, {}, {}};
-    g.box_min = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity());
-    g.box_max = -g.box_min;
-    for (const Eigen::Vector3d& c : s.corners_world()) {
-      g.box_min = g.box_min.cwiseMin(c);
-      g.box_max = g.box_max.cwiseMax(c);
-    }
+    GtPolygon g{s.plane, {}, {}};
+    for (const Eigen::Vector3d& c : s.corners_world()) g.corners.push_back(c.cast<float>());
+    g.box = map::bounds_of(g.corners);
     out.push_back(std::move(g));
   }
   return out;
 }
 
 double distance_to_gt_polygon(const Eigen::Vector3d& point, const GtPolygon& gt) {
-  const Eigen::Vector3d d = point - gt.origin;
-  const Eigen::Vector2d st(d.dot(gt.u), d.dot(gt.v));
-  const double h = gt.plane.signed_distance(point);
-  if (map::point_in_ring(gt.polygon, st)) return std::abs(h);
-  double best2 = std::numeric_limits<double>::infinity();
-  for (std::size_t i = 0, n = gt.polygon.size(); i < n; ++i) {
-    const Eigen::Vector2d& a = gt.polygon[i];
-    const Eigen::Vector2d& b = gt.polygon[(i + 1) % n];
-    const Eigen::Vector2d ab = b - a;
-    const double len2 = ab.squaredNorm();
-    const double t = len2 > 0.0 ? std::clamp((st - a).dot(ab) / len2, 0.0, 1.0) : 0.0;
-    best2 = std::min(best2, (a + t * ab - st).squaredNorm());
-  }
-  return std::sqrt(h * h + best2);
-}
-
-MapAccuracy map_accuracy(const map::GlobalMap& map, std::span<const GtPolygon> gt) {
-  MapAccuracy acc;
-  const double reach = kCompletenessDistancesM.back();
-  std::array<double, kCompletenessDistancesM.size()> area_within{};
-  std::vector<Eigen::Vector3f> vertices;
-  std::vector<const GtPolygon*> near;
-  for (const auto& [id, cell] : map.cells()) {
-    cell.vertices_m.vertices_into(vertices);
-    const double area = map::polygon_area_m2(vertices);
-    const Plane3 plane = cell.plane;
-    const map::CoverageGrid grid = map::coverage_grid(plane, vertices);
-    if (!(area > 0.0) || grid.points.empty()) continue;
-    ++acc.cells;
-    acc.area_m2 += area;
-    // The GT polygons whose bounds come within the largest distance of the cell's.
-    const map::Aabb box = map::bounds_of(vertices);
-    near.clear();
-    for (const GtPolygon& g : gt)
-      if ((g.box_min.array() <= box.max.array() + reach).all() && (g.box_max.array() >= box.min.array() - reach).all())
-        near.push_back(&g);
-    std::array<std::size_t, kCompletenessDistancesM.size()> hits{};
-    for (const Eigen::Vector2d& st : grid.points) {
-      const Eigen::Vector3d p = grid.basis.to_3d(st);
-      double nearest = std::numeric_limits<double>::infinity();
-      for (const GtPolygon* g : near) nearest = std::min(nearest, distance_to_gt_polygon(p, *g));
-      for (std::size_t i = 0; i < hits.size(); ++i)
-        if (nearest <= kCompletenessDistancesM[i]) ++hits[i];
-    }
-    for (std::size_t i = 0; i < hits.size(); ++i)
-      area_within[i] += area * static_cast<double>(hits[i]) / static_cast<double>(grid.points.size());
-  }
-  if (acc.area_m2 > 0.0)
-    for (std::size_t i = 0; i < area_within.size(); ++i) acc.within[i] = area_within[i] / acc.area_m2;
-  return acc;
+  return map::distance_to_polygon(point, gt.plane, gt.corners);
 }
 
 namespace {
 
-/// A point's integer cell of edge `edge_m` per axis, packed into 64 bits (21 bits an axis: cells
-/// of ±2²⁰, far beyond any map's coordinates at the edges used here).
-std::int64_t cell_key(const Eigen::Vector3d& p, double edge_m) {
-  const auto axis = [&](double x) {
-    return static_cast<std::int64_t>(std::floor(x / edge_m)) + (std::int64_t{1} << 20);
-  };
-  return (axis(p.x()) << 42) | (axis(p.y()) << 21) | axis(p.z());
+/// An integer cell index packed into 64 bits (21 bits an axis: ±2²⁰ cells, far beyond any map's
+/// coordinates at the edges used here: 100 km at 10 cm).
+std::int64_t pack(const Eigen::Vector3i& q) {
+  const auto axis = [](int x) { return static_cast<std::int64_t>(x) + (std::int64_t{1} << 20); };
+  return (axis(q.x()) << 42) | (axis(q.y()) << 21) | axis(q.z());
+}
+
+/// The integer cell of edge `edge_m` holding the finite point `p`: ⌊p / edge_m⌋ per axis.
+Eigen::Vector3i cell_of(const Eigen::Vector3d& p, double edge_m) {
+  return (p / edge_m).array().floor().cast<int>();
 }
 
 /// The GT polygons by the cubes of edge kBucketM their bounds, widened by the largest scored
@@ -102,17 +51,17 @@ class GtBuckets {
   explicit GtBuckets(std::span<const GtPolygon> gt) : gt_(gt) {
     const double reach = kCompletenessDistancesM.back();
     for (std::uint32_t i = 0; i < gt.size(); ++i) {
-      const Eigen::Vector3d lo = gt[i].box_min.array() - reach, hi = gt[i].box_max.array() + reach;
-      for (double x = std::floor(lo.x() / kBucketM); x <= std::floor(hi.x() / kBucketM); ++x)
-        for (double y = std::floor(lo.y() / kBucketM); y <= std::floor(hi.y() / kBucketM); ++y)
-          for (double z = std::floor(lo.z() / kBucketM); z <= std::floor(hi.z() / kBucketM); ++z)
-            buckets_[cell_key(kBucketM * Eigen::Vector3d(x + 0.5, y + 0.5, z + 0.5), kBucketM)].push_back(i);
+      const Eigen::Vector3i lo = cell_of(gt[i].box.min.array() - reach, kBucketM);
+      const Eigen::Vector3i hi = cell_of(gt[i].box.max.array() + reach, kBucketM);
+      for (int x = lo.x(); x <= hi.x(); ++x)
+        for (int y = lo.y(); y <= hi.y(); ++y)
+          for (int z = lo.z(); z <= hi.z(); ++z) buckets_[pack({x, y, z})].push_back(i);
     }
   }
   /// Distance from `p` to the nearest GT polygon, +∞ when none lies within the largest scored distance.
   double nearest(const Eigen::Vector3d& p) const {
     double best = std::numeric_limits<double>::infinity();
-    if (const auto it = buckets_.find(cell_key(p, kBucketM)); it != buckets_.end())
+    if (const auto it = buckets_.find(pack(cell_of(p, kBucketM))); it != buckets_.end())
       for (std::uint32_t i : it->second) best = std::min(best, distance_to_gt_polygon(p, gt_[i]));
     return best;
   }
@@ -123,6 +72,32 @@ class GtBuckets {
 };
 
 }  // namespace
+
+MapAccuracy map_accuracy(const map::GlobalMap& map, std::span<const GtPolygon> gt) {
+  MapAccuracy acc;
+  std::array<double, kCompletenessDistancesM.size()> area_within{};
+  const GtBuckets buckets(gt);
+  std::vector<Eigen::Vector3f> vertices;
+  for (const auto& [id, cell] : map.cells()) {
+    cell.vertices_m.vertices_into(vertices);
+    const double area = map::polygon_area_m2(vertices);
+    const map::CoverageGrid grid = map::coverage_grid(cell.plane, vertices);
+    if (!(area > 0.0) || grid.points.empty()) continue;
+    ++acc.cells;
+    acc.area_m2 += area;
+    std::array<std::size_t, kCompletenessDistancesM.size()> hits{};
+    for (const Eigen::Vector2d& st : grid.points) {
+      const double d = buckets.nearest(grid.basis.to_3d(st));
+      for (std::size_t i = 0; i < hits.size(); ++i)
+        if (d <= kCompletenessDistancesM[i]) ++hits[i];
+    }
+    for (std::size_t i = 0; i < hits.size(); ++i)
+      area_within[i] += area * static_cast<double>(hits[i]) / static_cast<double>(grid.points.size());
+  }
+  if (acc.area_m2 > 0.0)
+    for (std::size_t i = 0; i < area_within.size(); ++i) acc.within[i] = area_within[i] / acc.area_m2;
+  return acc;
+}
 
 VoxelAccuracy voxel_accuracy(std::span<const Eigen::Vector3d> centres, std::span<const GtPolygon> gt) {
   VoxelAccuracy acc;
@@ -149,13 +124,13 @@ MapCompleteness voxel_completeness(std::span<const Eigen::Vector3d> centres, dou
   if (points.empty()) return c;
   std::unordered_set<std::int64_t> occupied;
   occupied.reserve(centres.size());
-  for (const Eigen::Vector3d& centre : centres) occupied.insert(cell_key(centre, resolution_m));
+  for (const Eigen::Vector3d& centre : centres) occupied.insert(pack(cell_of(centre, resolution_m)));
   const double reach = kCompletenessDistancesM.back();
   const int shells = static_cast<int>(std::ceil(reach / resolution_m)) + 1;
   std::array<std::size_t, kCompletenessDistancesM.size()> hits{};
   for (const Eigen::Vector3d& p : points) {
     if (!p.allFinite()) continue;  // scored, held by nothing
-    const Eigen::Vector3i home = (p / resolution_m).array().floor().cast<int>();
+    const Eigen::Vector3i home = cell_of(p, resolution_m);
     // Shell r (Chebyshev distance r in voxels) lies at least (r − 1)·resolution from p, which is
     // inside voxel `home`: stop once that exceeds the best distance found or the reach.
     double best = std::numeric_limits<double>::infinity();
@@ -165,9 +140,8 @@ MapCompleteness voxel_completeness(std::span<const Eigen::Vector3d> centres, dou
           for (int k = -r; k <= r; ++k) {
             if (std::max({std::abs(i), std::abs(j), std::abs(k)}) != r) continue;
             const Eigen::Vector3i q = home + Eigen::Vector3i(i, j, k);
+            if (!occupied.contains(pack(q))) continue;
             const Eigen::Vector3d lo = q.cast<double>() * resolution_m;
-            if (!occupied.contains(cell_key(lo + Eigen::Vector3d::Constant(0.5 * resolution_m), resolution_m)))
-              continue;
             const Eigen::Vector3d gap = (lo - p).cwiseMax(p - (lo.array() + resolution_m).matrix()).cwiseMax(0.0);
             best = std::min(best, gap.norm());
           }

@@ -17,23 +17,19 @@
 
 namespace planecell::services::eval {
 
-/// A GT surface as the accuracy test reads it: its plane and its convex polygon in the plane's
-/// basis (X = origin + s·u + t·v), with the polygon's world bounds.
+/// A GT surface as the accuracy test reads it: its plane, its corners in the world and their bounds.
 struct GtPolygon {
   Plane3 plane;
-  Eigen::Vector3d origin = Eigen::Vector3d::Zero();
-  Eigen::Vector3d u = Eigen::Vector3d::UnitX();
-  Eigen::Vector3d v = Eigen::Vector3d::UnitY();
-  std::vector<Eigen::Vector2d> polygon;  ///< (s, t), ≥ 3 corners
-  Eigen::Vector3d box_min = Eigen::Vector3d::Zero(), box_max = Eigen::Vector3d::Zero();
+  std::vector<Eigen::Vector3f> corners;  ///< world frame, ≥ 3, in polygon order (floats: 8 µm at 100 m)
+  map::Aabb box;                         ///< bounds of the corners
 };
 
 /// The GT polygons of `surfaces` (those with fewer than 3 corners are left out).
 std::vector<GtPolygon> gt_polygons(std::span<const io::SyntheticSurface> surfaces);
 
-/// Distance (m) from `point` to the GT polygon: with (s, t) = ((X − o)·u, (X − o)·v) and
-/// h = n·X + e, |h| when (s, t) lies inside the polygon, else √(h² + d²) with d the 2D distance
-/// of (s, t) to the polygon's boundary.
+/// Distance (m) from `point` to the GT polygon: map::distance_to_polygon, the paper's
+/// point-to-plane distance |n·X + e| where X projects inside the polygon, the distance to its
+/// boundary elsewhere.
 double distance_to_gt_polygon(const Eigen::Vector3d& point, const GtPolygon& gt);
 
 struct MapAccuracy {
