@@ -15,7 +15,7 @@ BUILD_DIR=${PLANECELL_FUZZ_BUILD_DIR:-build-fuzz}
 SECONDS_EACH=${PLANECELL_FUZZ_SECONDS:-20}
 SEED=${PLANECELL_FUZZ_SEED:-1}
 JOBS=${PLANECELL_JOBS:-$(nproc)}
-TARGETS=${PLANECELL_FUZZ_TARGETS:-"pfm kitti_disparity_png kitti_text euroc config planecell_codec map_store lcm"}
+TARGETS=${PLANECELL_FUZZ_TARGETS:-"pfm kitti_disparity_png kitti_text euroc config planecell_codec map_store lcm extraction_cache"}
 CXX_BIN=${PLANECELL_FUZZ_CXX:-$(command -v clang++-14 || command -v clang++)}
 LAUNCHER=()
 if command -v ccache >/dev/null 2>&1; then LAUNCHER=(-DCMAKE_CXX_COMPILER_LAUNCHER=ccache); fi

@@ -12,6 +12,8 @@
 #include <thread>
 
 #include "core/error.hpp"
+#include "io/extraction_cache.hpp"
+#include "services/config_loader.hpp"
 #include "io/kitti_odometry.hpp"
 #include "io/sequence_ground_truth.hpp"
 #include "io/synthetic/synthetic_world.hpp"
@@ -90,6 +92,50 @@ cv::Mat gt_disparity_of(const io::KittiOdometrySequence& sequence, const FrameWo
   return disparity;
 }
 
+/// 64-bit FNV-1a of `bytes`, continuing from `hash`.
+std::uint64_t fnv1a(std::string_view bytes, std::uint64_t hash = 14695981039346656037ull) {
+  for (unsigned char ch : bytes) hash = (hash ^ ch) * 1099511628211ull;
+  return hash;
+}
+
+/// What the extraction products of a replay depend on, besides each frame's images: the SGM and
+/// extraction configuration, the camera, and whether the disparity is the GT's.
+std::uint64_t extraction_fingerprint(const AppConfig& config, const StereoCamera& camera, bool gt_disparity) {
+  AppConfig inputs;  // the sections that produce the cells, the rest at their defaults
+  inputs.sgm = config.sgm;
+  inputs.extraction = config.extraction;
+  std::ostringstream text;
+  text.precision(17);
+  text << config_to_yaml(inputs) << camera.fx << ' ' << camera.fy << ' ' << camera.cx << ' ' << camera.cy << ' '
+       << camera.baseline_m << ' ' << camera.width << ' ' << camera.height << ' ' << gt_disparity;
+  return fnv1a(text.str());
+}
+
+/// extraction_fingerprint extended by frame `index`'s image files (path, size, modification time).
+std::uint64_t frame_fingerprint(std::uint64_t base, const io::KittiOdometrySequence& sequence, std::size_t index) {
+  std::ostringstream text;
+  for (const auto& path : {sequence.left_images[index], sequence.right_images[index]}) {
+    std::error_code ec;
+    const auto size = std::filesystem::file_size(path, ec);
+    const auto time = std::filesystem::last_write_time(path, ec).time_since_epoch().count();
+    text << path.string() << ' ' << size << ' ' << time << '\n';
+  }
+  return fnv1a(text.str(), base);
+}
+
+/// Frame `index` without its images, for a frame whose extraction products come from the cache:
+/// camera, timestamp and pose as load_kitti_frame gives them.
+FrameWork cached_frame_work(const io::KittiOdometrySequence& sequence, std::size_t index) {
+  FrameWork work;
+  work.ingest_time = StageClock::now();
+  work.frame_id = static_cast<std::uint64_t>(index);
+  work.frame.frame_id = work.frame_id;
+  work.frame.camera = sequence.camera;
+  if (!sequence.times_s.empty()) work.frame.timestamp_s = sequence.times_s[index];
+  if (!sequence.poses.empty()) work.frame.pose = sequence.poses[index];
+  return work;
+}
+
 }  // namespace
 
 std::pair<std::size_t, std::size_t> parse_frame_range(const std::string& text) {
@@ -118,6 +164,18 @@ ReplayReport run_replay(const ReplayOptions& options, const AppConfig& config) {
   if (options.gt_disparity && !io::has_disparity_ground_truth(sequence))
     throw InputError("replay: --gt-disparity: sequence '" + options.sequence_dir.string() +
                      "' has no ground-truth disparity (disp_occ_0/)");
+  if (options.extraction_cache_dir && (options.threads || options.voxel))
+    throw ConfigError("replay: --extraction-cache runs single-threaded without --voxel (the voxel baseline "
+                      "needs the SGM disparity the cache skips): drop --threads / --voxel");
+  std::uint64_t cache_fingerprint = 0;
+  if (options.extraction_cache_dir) {
+    std::error_code ec;
+    std::filesystem::create_directories(*options.extraction_cache_dir, ec);
+    if (ec)
+      throw StorageError("replay: extraction cache folder '" + options.extraction_cache_dir->string() +
+                         "' cannot be created: " + ec.message());
+    cache_fingerprint = extraction_fingerprint(config, sequence.camera, options.gt_disparity);
+  }
   if (!(options.rate_hz >= 0.0))
     throw ConfigError("replay: rate " + std::to_string(options.rate_hz) + " Hz: must be >= 0");
   ReplayReport report;
@@ -211,7 +269,7 @@ ReplayReport run_replay(const ReplayOptions& options, const AppConfig& config) {
     if (score_completeness && work.frame_id % kCompletenessFrameStride == 0 && work.frame_id < truth->second.size()) {
       try {  // an unreadable GT file ends the score, not the replay
         // --gt-disparity: the frame was mapped from its GT disparity, already loaded.
-        const cv::Mat gt = options.gt_disparity
+        const cv::Mat gt = options.gt_disparity && !work.disparity.empty()
                                ? work.disparity
                                : io::load_disparity_ground_truth(sequence, static_cast<std::size_t>(work.frame_id),
                                                                  sequence.camera.width, sequence.camera.height);
@@ -258,12 +316,28 @@ ReplayReport run_replay(const ReplayOptions& options, const AppConfig& config) {
         ++report.frames_resumed;
         continue;
       }
-      FrameWork work = load_when_due(index);
-      if (options.gt_disparity)
-        work.timed("gt_disparity", [&] { work.disparity = gt_disparity_of(sequence, work); });
-      else
-        sgm_stage(work, config.sgm);
-      extract_stage(work, config.extraction);
+      std::optional<std::filesystem::path> cache_path;
+      std::optional<extraction::PlanecellFrame> cached;
+      std::uint64_t fingerprint = 0;
+      if (options.extraction_cache_dir) {
+        cache_path = io::extraction_cache_path(*options.extraction_cache_dir, index);
+        fingerprint = frame_fingerprint(cache_fingerprint, sequence, index);
+        cached = io::read_extraction_cache(*cache_path, fingerprint, index);
+      }
+      FrameWork work;
+      if (cached) {
+        work = cached_frame_work(sequence, index);
+        work.cells = std::move(*cached);
+        ++report.frames_from_extraction_cache;
+      } else {
+        work = load_when_due(index);
+        if (options.gt_disparity)
+          work.timed("gt_disparity", [&] { work.disparity = gt_disparity_of(sequence, work); });
+        else
+          sgm_stage(work, config.sgm);
+        extract_stage(work, config.extraction);
+        if (cache_path) io::write_extraction_cache(*cache_path, fingerprint, index, work.cells);
+      }
       if (refinement) refine_stage(work, *refinement, global_map);
       transform_stage(work);
       const std::size_t every = options.memory_sample_every;
@@ -403,6 +477,7 @@ nlohmann::json to_json(const ReplayReport& r) {
   nlohmann::json out = {{"sequence", r.sequence},
                         {"frames", r.frames},
                         {"frames_resumed", r.frames_resumed},
+                        {"frames_from_extraction_cache", r.frames_from_extraction_cache},
                         {"cells_extracted", r.cells_extracted},
                         {"plane_fraction", r.plane_fraction},
                         {"cells", r.cells_in_map},
@@ -534,6 +609,8 @@ std::string summary_text(const ReplayReport& r) {
   out.precision(1);
   out << "replay: " << r.frames << " frames";
   if (r.frames_resumed > 0) out << " (+" << r.frames_resumed << " already in the store)";
+  if (r.frames_from_extraction_cache > 0)
+    out << " (" << r.frames_from_extraction_cache << " with SGM and extraction from the cache)";
   out << " in " << r.wall_s << " s (" << r.frames_per_s << " frames/s" << (r.threaded ? ", threaded" : "");
   if (r.rate_hz > 0.0) out << ", input paced at " << r.rate_hz << " Hz";
   out << "); " << r.cells_extracted << " cells extracted ("

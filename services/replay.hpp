@@ -39,6 +39,12 @@ struct ReplayOptions {
   /// the merging scores and the pose refinement show what perfect stereo would give. Needs GT
   /// disparity for every frame (InputError otherwise) and the single-threaded replay (ConfigError).
   bool gt_disparity = false;
+  /// Extraction products (camera-frame planecells, label image) of each frame are read from
+  /// this folder when it holds them for the same inputs (io/extraction_cache: the SGM and
+  /// extraction configuration, camera, image files and --gt-disparity), else computed and written
+  /// there: a second replay re-runs only the mapping stages (tuning and profiling the map).
+  /// Single-threaded, without the voxel baseline (it needs the disparity; ConfigError).
+  std::optional<std::filesystem::path> extraction_cache_dir;
   /// Called with every finished frame (e.g. LCM map updates; work.delta filled when
   /// sinks.want_delta): threaded on the publish thread, single-threaded on the calling thread
   /// after the store.
@@ -78,6 +84,8 @@ struct ReplayReport {
   std::string sequence;
   std::size_t frames = 0;          ///< frames processed in this run
   std::size_t frames_resumed = 0;  ///< frames skipped because the store already had them
+  /// frames whose extraction products came from ReplayOptions::extraction_cache_dir
+  std::size_t frames_from_extraction_cache = 0;
   std::size_t cells_extracted = 0;
   double plane_fraction = 0.0;     ///< mean share of segments with a plane
   std::size_t cells_in_map = 0;

@@ -22,7 +22,7 @@ void add_replay_command(CLI::App& app, CommandContext& context) {
       "global map. With --map the map is stored (SQLite, one transaction per frame) and a second "
       "run with the same --map resumes after the last committed frame.");
   struct Args {
-    std::string sequence, map, poses, frames, report;
+    std::string sequence, map, poses, frames, report, extraction_cache;
     bool voxel = false, ray_casting = false, no_progress = false, threads = false, publish = false,
          gt_disparity = false;
     double rate_hz = 0.0;
@@ -45,6 +45,11 @@ void add_replay_command(CLI::App& app, CommandContext& context) {
   command->add_flag("--gt-disparity", args->gt_disparity,
                     "Diagnostic: use the sequence's ground-truth disparity (disp_occ_0/, as `synth` "
                     "writes) instead of SGM, to tell stereo errors from mapping errors (single-threaded)");
+  command->add_option("--extraction-cache", args->extraction_cache,
+                      "Folder of each frame's SGM + extraction products: read when they were made from "
+                      "the same images and sgm/extraction settings, else computed and written there, so "
+                      "a second replay re-runs only transform, merge and store (map tuning and "
+                      "profiling; single-threaded, not with --voxel)");
   command->add_flag("--threads", args->threads,
                     "Run the stages as the threaded pipeline (one thread per stage, bounded queues; "
                     "section 'pipeline' of the config); builds the same map");
@@ -64,6 +69,8 @@ void add_replay_command(CLI::App& app, CommandContext& context) {
       "  planecell replay /tmp/street --threads --no-progress   # pipelined: frames/s, end-to-end latency\n"
       "  planecell replay /tmp/street --threads --rate 10        # latency at camera rate\n"
       "  planecell replay /tmp/street --gt-disparity             # the map from perfect stereo\n"
+      "  planecell replay /tmp/street --extraction-cache /tmp/street.pcx --config map_trial.yaml\n"
+      "                                     # second run on: merge only, same cells\n"
       "Report: frames, cells, surfaces, map bytes (RAM), store bytes, bytes per frame, voxel\n"
       "bytes/leaves and the map's size against them (with --voxel: map_vs_voxel, RAM and store\n"
       "times smaller than OctoMap's memoryUsage and .ot, store over .bt), per-stage latency\n"
@@ -88,6 +95,7 @@ void add_replay_command(CLI::App& app, CommandContext& context) {
     options.progress = !args->no_progress;
     options.threads = args->threads;
     options.gt_disparity = args->gt_disparity;
+    if (!args->extraction_cache.empty()) options.extraction_cache_dir = args->extraction_cache;
     options.rate_hz = args->rate_hz;
     options.memory_sample_every = args->rss_every;
     std::unique_ptr<lcm::LCM> lcm;

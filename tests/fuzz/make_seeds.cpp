@@ -11,6 +11,7 @@
 #include "core/plane.hpp"
 #include "io/disparity_io.hpp"
 #include "io/lcm/lcm_codec.hpp"
+#include "io/extraction_cache.hpp"
 #include "io/map_store.hpp"
 #include "io/planecell_codec.hpp"
 #include "support/planecell_fixtures.hpp"
@@ -129,7 +130,7 @@ int main(int argc, char** argv) {
   }
   const fs::path out = argv[1];
   try {
-    for (const char* target : {"pfm", "kitti_disparity_png", "planecell_codec", "map_store", "lcm"}) {
+    for (const char* target : {"pfm", "kitti_disparity_png", "planecell_codec", "map_store", "lcm", "extraction_cache"}) {
       fs::remove_all(out / target);  // only this program's seeds live here
       fs::create_directories(out / target);
     }
@@ -164,6 +165,15 @@ int main(int argc, char** argv) {
     }
     for (const char* side : {"-wal", "-shm"}) fs::remove(db.string() + side);
     write_lcm_seeds(out / "lcm");
+    // A frame of the codec's cells in the extraction cache (fuzz_extraction_cache's fingerprint
+    // and frame id), labels in four vertical strips.
+    extraction::PlanecellFrame frame;
+    frame.cells = cells;
+    frame.labels.create(8, 12, CV_32S);
+    for (int y = 0; y < 8; ++y)
+      for (int x = 0; x < 12; ++x)
+        frame.labels.at<std::int32_t>(y, x) = std::min<int>(x / 3, static_cast<int>(cells.size()) - 1);
+    io::write_extraction_cache(out / "extraction_cache" / "seed_frame.pcx", 0x5eed, 3, frame);
   } catch (const std::exception& e) {
     std::fprintf(stderr, "fuzz_make_seeds: %s\n", e.what());
     return 1;

@@ -173,6 +173,48 @@ TEST_F(ReplayTest, AFinishedReplaySettlesTheMapAndAResumedOneGoesOnFromIt) {
   EXPECT_EQ(io::load_map(store, config_.map).cells().size(), resumed.cells_in_map);
 }
 
+TEST_F(ReplayTest, TheExtractionCacheRerunsTheMappingOnTheSameCells) {
+  ReplayOptions options = street_options();
+  options.extraction_cache_dir = scratch_ / "cache";
+  options.map_path = scratch_ / "computed.db";
+  const ReplayReport computed = run_replay(options, config_);
+  EXPECT_EQ(computed.frames_from_extraction_cache, 0u);
+  EXPECT_TRUE(std::filesystem::exists(scratch_ / "cache" / "000003.pcx"));
+  options.map_path = scratch_ / "cached.db";
+  const ReplayReport cached = run_replay(options, config_);
+  EXPECT_EQ(cached.frames, 4u);
+  EXPECT_EQ(cached.frames_from_extraction_cache, 4u);
+  EXPECT_EQ(cached.cells_extracted, computed.cells_extracted);
+  // The same cells make the same map, and score the same against the ground truth.
+  const auto a = io::load_map(io::MapStore(scratch_ / "computed.db"), config_.map);
+  const auto b = io::load_map(io::MapStore(scratch_ / "cached.db"), config_.map);
+  EXPECT_TRUE(a.same_content(b));
+  ASSERT_TRUE(computed.merge_metrics && cached.merge_metrics);
+  EXPECT_EQ(cached.merge_metrics->area_one_label, computed.merge_metrics->area_one_label);
+  EXPECT_EQ(cached.merge_metrics->cells, computed.merge_metrics->cells);
+  // Other extraction settings make other cells: the cache is stale and rewritten, not used.
+  AppConfig other = config_;
+  other.extraction.target_cells += 40;
+  options.map_path.reset();
+  EXPECT_EQ(run_replay(options, other).frames_from_extraction_cache, 0u);
+  EXPECT_EQ(run_replay(options, other).frames_from_extraction_cache, 4u);
+  // A corrupt cache file is a clear error naming it; the voxel baseline needs the disparity.
+  {
+    const auto file = scratch_ / "cache" / "000002.pcx";
+    std::string bytes;
+    {
+      std::ifstream in(file, std::ios::binary);
+      bytes.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+    }
+    ASSERT_GT(bytes.size(), 100u);
+    bytes[bytes.size() / 2] ^= 0x08;
+    std::ofstream(file, std::ios::binary | std::ios::trunc) << bytes;
+  }
+  EXPECT_NE(test::error_of<StorageError>([&] { run_replay(options, other); }).find("000002.pcx"), std::string::npos);
+  options.voxel = true;
+  EXPECT_NE(test::error_of<ConfigError>([&] { run_replay(options, other); }).find("--voxel"), std::string::npos);
+}
+
 TEST_F(ReplayTest, VoxelBaselineIsFedTheSameFrames) {
   ReplayOptions options = street_options();
   options.voxel = true;
