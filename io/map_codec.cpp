@@ -236,15 +236,17 @@ map::Surface decode_surface_legacy(std::uint32_t id, const void* data, std::size
   }
   d.footprint = get_footprint(r, size, v6);
   r.expect_end();
+  s.frames_observed = s.observations;  // before version 8: the observations stand in
   return s;
 }
 
 /// Version 7's raw surface encoding. Reals as in 6 (float groups where exact); the information Σw
 /// as a double; the histogram as a 64-bit mask of its non-zero bins and those bins' u16 values;
-/// counts, the last observed frame and the cell ids as varints (the ids as zigzag differences
-/// from the previous one); then a flag byte: 1 and the detail (moment sums as 12 doubles, basis,
-/// footprint) for a live surface, 0 and its quiet moments (9 floats) for a dormant one.
-std::vector<std::uint8_t> encode_surface_v7(const map::Surface& s) {
+/// counts, the last observed frame, (version 8) the frames that observed it and the cell ids as
+/// varints (the ids as zigzag differences from the previous one); then a flag byte: 1 and the
+/// detail (moment sums as 12 doubles, basis, footprint) for a live surface, 0 and its quiet
+/// moments (9 floats) for a dormant one.
+std::vector<std::uint8_t> encode_surface_v7(const map::Surface& s, int version) {
   Writer w;
   const Eigen::Vector3d n = s.plane.normal();
   put_reals(w, std::array{n.x(), n.y(), n.z(), s.plane.offset()});
@@ -254,6 +256,7 @@ std::vector<std::uint8_t> encode_surface_v7(const map::Surface& s) {
   put_areas_colour_bounds(w, s);
   w.put_varint(s.observations);
   w.put_varint(s.last_observed_frame);
+  if (version >= 8) w.put_varint(s.frames_observed);
   w.put_varint(s.cells.size());
   std::int64_t previous = 0;
   for (std::uint32_t id : s.cells) {
@@ -275,7 +278,7 @@ std::vector<std::uint8_t> encode_surface_v7(const map::Surface& s) {
 }
 
 map::Surface decode_surface_v7(std::uint32_t id, const void* data, std::size_t size,
-                               const std::string& where) {
+                               const std::string& where, int version) {
   Reader r(data, size, where + ": surface " + std::to_string(id));
   map::Surface s;
   s.id = id;
@@ -296,6 +299,9 @@ map::Surface decode_surface_v7(std::uint32_t id, const void* data, std::size_t s
   get_areas_colour_bounds(r, s);
   s.observations = get_u32_varint(r, "observation count");
   s.last_observed_frame = r.get_varint();
+  // Before version 8 a surface did not count its frames: its observations stand in (a surface
+  // holding one observation is unconfirmed, as it was then).
+  s.frames_observed = version >= 8 ? get_u32_varint(r, "frame count") : s.observations;
   const auto cells = r.get_varint();
   if (cells > size)
     throw StorageError(r.what() + ": cell count " + std::to_string(cells) + " exceeds the blob");
@@ -325,12 +331,12 @@ map::Surface decode_surface_v7(std::uint32_t id, const void* data, std::size_t s
 }
 
 std::vector<std::uint8_t> encode_surface_raw(const map::Surface& s, int version) {
-  return version >= 7 ? encode_surface_v7(s) : encode_surface_legacy(s, version);
+  return version >= 7 ? encode_surface_v7(s, version) : encode_surface_legacy(s, version);
 }
 
 map::Surface decode_surface_raw(std::uint32_t id, const void* data, std::size_t size,
                                 const std::string& where, int version) {
-  return version >= 7 ? decode_surface_v7(id, data, size, where)
+  return version >= 7 ? decode_surface_v7(id, data, size, where, version)
                       : decode_surface_legacy(id, data, size, where, version);
 }
 

@@ -2,7 +2,9 @@
 /// Byte encodings of the map store's blobs (io::MapStore), one function pair per blob, for every
 /// store version this build reads. All are lossless: decode(encode(x)) == x bit for bit.
 ///
-/// Version 7 (current) writes surfaces as 6 does with a sparse histogram (a mask of the non-zero
+/// Version 8 (current) adds a surface's count of the frames that observed it
+/// (map::Surface::frames_observed, MapConfig::confirm_frames); versions before it decode with
+/// their observation count in its place. Version 7 writes surfaces as 6 does with a sparse histogram (a mask of the non-zero
 /// bins and their values), the last observed frame, the cell ids as differences, and the
 /// SurfaceDetail only for a live surface (map::Surface; MapConfig::dormant_after_frames).
 /// Version 6 stores each group of reals as floats when every value in it is exactly a
@@ -23,12 +25,12 @@ namespace planecell::io::map_codec {
 
 /// Oldest and newest store versions whose blobs these functions read and write.
 constexpr int kOldestVersion = 3;
-constexpr int kCurrentVersion = 7;
+constexpr int kCurrentVersion = 8;
 
 /// A surface blob of store `version` (3 and 4: raw; 5: raw size u32 + zlib stream of the raw
 /// encoding; 6 and 7: the same around the compact encodings). Throws StorageError beyond 64 MiB
 /// raw, and for a dormant surface below version 7. Versions before 7 decode into live surfaces
-/// with last_observed_frame 0.
+/// with last_observed_frame 0; before 8 with frames_observed = observations.
 std::vector<std::uint8_t> encode_surface(const map::Surface& s, int version = kCurrentVersion);
 /// Decodes a surface blob of store `version`; `where` names the store in the StorageError raised
 /// for a truncated, oversized or corrupt blob.

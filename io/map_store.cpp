@@ -26,13 +26,14 @@ using blob::Writer;
 constexpr int kBusyTimeoutMs = 5000;
 
 constexpr const char* kFormat = "planecell-map";
-/// 7: dormant surfaces without their detail, sparse histograms (io/map_codec).
-constexpr const char* kVersion = "7";
-static_assert(map_codec::kCurrentVersion == 7, "kVersion names the codec's current version");
-/// Versions upgraded in place: 6 (every surface live, dense histograms), 5 (as 6 with reals and
+/// 8: surfaces count the frames that observed them (io/map_codec).
+constexpr const char* kVersion = "8";
+static_assert(map_codec::kCurrentVersion == 8, "kVersion names the codec's current version");
+/// Versions upgraded in place: 7 (as 8 without the frame counts: the observation counts stand in),
+/// 6 (every surface live, dense histograms), 5 (as 6 with reals and
 /// vertices as raw IEEE bytes), 4 (as 5 with raw surface blobs and an unused cells_by_surface
 /// index) and 3 (as 4 without frames.input_pose).
-constexpr std::array<const char*, 4> kMigratableVersions = {"3", "4", "5", "6"};
+constexpr std::array<const char*, 5> kMigratableVersions = {"3", "4", "5", "6", "7"};
 
 constexpr const char* kSchema = R"sql(
 CREATE TABLE meta(key TEXT PRIMARY KEY, value TEXT NOT NULL);
@@ -202,7 +203,7 @@ MapStore::MapStore(const std::filesystem::path& path) : path_(path) {
     if (!exists) exec("PRAGMA page_size=2048");
     exec("PRAGMA journal_mode=WAL");
     exec("PRAGMA synchronous=NORMAL");
-    if (migrate) {  // version 3 to 6 → 7 in one transaction
+    if (migrate) {  // version 3 to 7 → 8 in one transaction
       const int from = std::stoi(from_version);
       exec("BEGIN IMMEDIATE");
       try {
@@ -233,13 +234,13 @@ MapStore::MapStore(const std::filesystem::path& path) : path_(path) {
             if (!read.step(rc)) fail("cannot read surface " + std::to_string(id));
             map::Surface surface =
                 map_codec::decode_surface(id, read.blob(0), read.blob_size(0), path.string(), from);
-            surface.last_observed_frame = last_frame;
+            if (from < 7) surface.last_observed_frame = last_frame;
             read.reset();
             write.bind(1, map_codec::encode_surface(surface)).bind(2, std::int64_t{id});
             run(write, [&] { fail("cannot rewrite surface " + std::to_string(id)); });
           }
         }
-        if (from < 6) {  // version 6 cells are as in 7
+        if (from < 6) {  // version 6 cells are as in 8
           Statement read(db_, "SELECT plane, vertices_m FROM cells WHERE id = ?", *this);
           Statement write(db_, "UPDATE cells SET plane = ?, vertices_m = ? WHERE id = ?", *this);
           for (const std::uint32_t id : ids_of("SELECT id FROM cells", "cells")) {
@@ -264,9 +265,9 @@ MapStore::MapStore(const std::filesystem::path& path) : path_(path) {
         sqlite3_exec(db_, "ROLLBACK", nullptr, nullptr, nullptr);
         throw;
       }
-      spdlog::info("map store '{}': upgraded from version {} to {} ({}sparse histograms, dormant "
-                   "surfaces{})",
+      spdlog::info("map store '{}': upgraded from version {} to {} ({}{}surfaces count their frames{})",
                    path.string(), from_version, kVersion, from < 6 ? "compact reals and vertices, " : "",
+                   from < 7 ? "sparse histograms, dormant surfaces, " : "",
                    from == 3 ? "; frames keep their input poses from now on" : "");
     }
     if (!exists) {

@@ -118,6 +118,13 @@ SurfaceDetail rebuild_detail(const Surface& surface, std::span<const MapCell* co
 
 namespace {
 
+/// Frame `frame_id` observed `surface` (a cell stored, fused or covered in it, or a merge):
+/// frames_observed counts it once, last_observed_frame moves to it.
+void observe(Surface& surface, std::uint64_t frame_id) {
+  if (surface.frames_observed == 0 || surface.last_observed_frame != frame_id) ++surface.frames_observed;
+  surface.last_observed_frame = std::max(surface.last_observed_frame, frame_id);
+}
+
 LabelState state_of_surface(const Surface& surface) {
   LabelState s;
   s.plane = surface.plane;
@@ -297,7 +304,7 @@ GlobalMap::GlobalMap(const MapConfig& config)
 
 bool same_surface(const Surface& a, const Surface& b) {
   return a.id == b.id && a.observations == b.observations &&
-         a.last_observed_frame == b.last_observed_frame && a.plane == b.plane && a.information == b.information &&
+         a.last_observed_frame == b.last_observed_frame && a.frames_observed == b.frames_observed && a.plane == b.plane && a.information == b.information &&
          a.histogram == b.histogram && a.histogram_weight_m2 == b.histogram_weight_m2 &&
          a.mean_rgb == b.mean_rgb && a.observed_area_m2 == b.observed_area_m2 &&
          a.area_m2 == b.area_m2 && a.bounds == b.bounds && a.cells == b.cells &&
@@ -332,7 +339,11 @@ void GlobalMap::absorb_surface(std::uint32_t into_id, std::uint32_t absorbed_id,
   into.area_m2 = static_cast<float>(to.footprint.area_m2());
   into.bounds.extend(absorbed.bounds);
   into.observations += absorbed.observations;
-  into.last_observed_frame = std::max({into.last_observed_frame, absorbed.last_observed_frame, report.frame_id});
+  // The frames that observed the two are not known one by one: the larger count, then this frame
+  // (counted unless one of them was observed in it already).
+  into.frames_observed = std::max(into.frames_observed, absorbed.frames_observed);
+  into.last_observed_frame = std::max(into.last_observed_frame, absorbed.last_observed_frame);
+  observe(into, report.frame_id);
   surfaces_.erase(absorbed_id);
   touched.erase(absorbed_id);
   touched.insert(into_id);
@@ -428,6 +439,7 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
   // again: pruned at the end of the frame unless this frame confirms them.
   std::set<std::uint32_t> unconfirmed;
   const auto max_age = static_cast<std::uint64_t>(std::max(0, config_.unconfirmed_max_age_frames));
+  const auto confirm = static_cast<std::uint32_t>(std::max(1, config_.confirm_frames));
   const double reach = coverage_rule ? std::max(gap, config_.redundant_max_distance_m) : gap;
   std::vector<std::uint32_t> nearby;  // index candidates of one new cell (storage reused)
   /// Stored cells met this frame with their surface and bounds, and their polygon decoded
@@ -494,7 +506,7 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
       const Aabb& old_box = met_cell.box;
       if (!old_box.overlaps(reach_box)) continue;
       const Surface& surface = *met->second.surface;
-      if (max_age > 0 && old.frame_id + max_age <= frame_id && surface.observations == 1)
+      if (max_age > 0 && surface.frames_observed < confirm && surface.last_observed_frame + max_age <= frame_id)
         unconfirmed.insert(old.surface);
       const bool neighbour = near_box.overlaps(old_box) &&
                              polygons_within_m(cell.plane, cell.vertices_m, box, old.plane, met_cell.polygon(), old_box, gap);
@@ -608,7 +620,7 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
     if (redundant && !surfaces_.contains(root) && surfaces_.contains(cover_surface)) {
       Surface& covering_surface = surfaces_.at(cover_surface);
       ++covering_surface.observations;  // a re-observation confirms the surface
-      covering_surface.last_observed_frame = frame_id;
+      observe(covering_surface, frame_id);
       touched.insert(cover_surface);
       report.cell_surfaces[fresh_input[k]] = cover_surface;
       ++report.fused_cells;
@@ -630,7 +642,7 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
     }
     touched.insert(root);
     report.cell_surfaces[fresh_input[k]] = root;
-    surface.last_observed_frame = frame_id;
+    observe(surface, frame_id);
     SurfaceDetail& detail = *surface.detail;
     const bool had_footprint = !detail.footprint.empty();
     const double added = detail.footprint.add(raster);
@@ -681,27 +693,31 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
     report.removed_cells.push_back(id);
     ++report.replaced_cells;
   }
-  // Unconfirmed surfaces this frame reached but did not confirm leave the map with their cells.
-  auto still_unconfirmed = [&](std::uint32_t id) {
-    const auto it = surfaces_.find(id);
-    return it != surfaces_.end() && it->second.observations == 1 && !touched.contains(id);
+  // Unconfirmed surfaces this frame reached but did not observe leave the map with their cells.
+  auto still_unconfirmed = [&](const Surface& surface) {
+    return surface.frames_observed < confirm && !touched.contains(surface.id);
   };
   for (std::uint32_t id : unconfirmed)
-    if (still_unconfirmed(id)) prune_surface(id, report);
-  // Single observations stored unconfirmed_timeout_frames ago or earlier: confirmed since, gone,
-  // or pruned now.
+    if (const auto it = surfaces_.find(id); it != surfaces_.end() && still_unconfirmed(it->second))
+      prune_surface(id, report);
+  // Unconfirmed surfaces no frame has observed for unconfirmed_timeout_frames: confirmed since,
+  // gone, observed since (due later), or pruned now.
   if (config_.unconfirmed_timeout_frames > 0) {
     const auto timeout = static_cast<std::uint64_t>(config_.unconfirmed_timeout_frames);
-    while (!single_observation_since_.empty() &&
-           single_observation_since_.begin()->first + timeout <= frame_id) {
-      const std::uint32_t id = single_observation_since_.begin()->second;
-      single_observation_since_.erase(single_observation_since_.begin());
-      if (still_unconfirmed(id)) prune_surface(id, report);
+    while (!unconfirmed_since_.empty() && unconfirmed_since_.begin()->first + timeout <= frame_id) {
+      const std::uint32_t id = unconfirmed_since_.begin()->second;
+      unconfirmed_since_.erase(unconfirmed_since_.begin());
+      const auto it = surfaces_.find(id);
+      if (it == surfaces_.end() || it->second.frames_observed >= confirm) continue;
+      if (it->second.last_observed_frame + timeout > frame_id)
+        unconfirmed_since_.emplace(it->second.last_observed_frame, id);
+      else if (still_unconfirmed(it->second))
+        prune_surface(id, report);
     }
   }
   for (std::uint32_t id : created_surfaces) {
     const auto it = surfaces_.find(id);
-    if (it != surfaces_.end() && it->second.observations == 1) single_observation_since_.emplace(frame_id, id);
+    if (it != surfaces_.end() && it->second.frames_observed < confirm) unconfirmed_since_.emplace(frame_id, id);
   }
 
   // 6. Surface descriptors from the merged label states (surfaces touched only by a replacement
@@ -959,7 +975,7 @@ MapBytes GlobalMap::map_bytes_by_part() const {
   bytes.cells += consolidation_queue_.size() * sizeof(consolidation_queue_.front());
   for (const auto& [id, cell] : cells_) bytes.vertices += cell.vertices_m.bytes();
   bytes.surfaces += dormancy_clock_.size() * sizeof(std::pair<std::uint64_t, std::uint32_t>) +
-                    tree_bytes(single_observation_since_);
+                    tree_bytes(unconfirmed_since_);
   for (const auto& [id, surface] : surfaces_) {
     bytes.surfaces += surface.cells.capacity() * sizeof(std::uint32_t) + surface.histogram.bytes();
     if (surface.detail) {
@@ -1174,11 +1190,9 @@ GlobalMap GlobalMap::restore(const MapConfig& config, std::vector<MapCell> cells
   }
   map.next_cell_id_ = next_cell_id;
   map.next_surface_id_ = next_surface_id;
-  // A surface holding a single observation holds the one cell it was stored with.
+  const auto confirm = static_cast<std::uint32_t>(std::max(1, config.confirm_frames));
   for (const auto& [id, surface] : map.surfaces_)
-    if (surface.observations == 1 && !surface.cells.empty())
-      if (const MapCell* cell = map.cell(surface.cells.front()))
-        map.single_observation_since_.emplace(cell->frame_id, id);
+    if (surface.frames_observed < confirm) map.unconfirmed_since_.emplace(surface.last_observed_frame, id);
   if (config.dormant_after_frames > 0)
     for (const auto& [id, surface] : map.surfaces_)
       if (surface.detail) map.dormancy_clock_.emplace(surface.last_observed_frame, id);

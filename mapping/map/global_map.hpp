@@ -79,6 +79,10 @@ struct Surface {
   std::vector<std::uint32_t> cells;  ///< stored member cells (map cell ids)
   HeapOptional<SurfaceDetail> detail;  ///< empty while the surface is dormant
   QuietMoments quiet_moments;  ///< a dormant surface's moments; zero while it is live
+  /// Distinct frames that observed it (cells stored, fused or covered in it; a merge joins the
+  /// counts as max(a, b), then counts the merging frame): MapConfig::confirm_frames. (Last: it
+  /// fills the record's tail padding.)
+  std::uint32_t frames_observed = 0;
 };
 
 /// The surface's plane moments: {information, moment_sum, moment_outer} while it is live, from
@@ -183,10 +187,11 @@ class GlobalMap {
   /// cells near the new ones come from the spatial index. Runs the CRF merger, then fuses every
   /// new cell into its surface's footprint: a cell adding less than fuse_new_area_fraction of its
   /// own area is not stored. A stored cell keeps its map fields only (MapCell); its colour
-  /// histogram is folded into its surface's. A surface left with a single observation when new
+  /// histogram is folded into its surface's. A surface not yet confirmed by
+  /// MapConfig::confirm_frames distinct frames is pruned (MergeReport::pruned_surfaces) when new
   /// cells come near it again MapConfig::unconfirmed_max_age_frames or more frames after it was
-  /// stored is pruned (MergeReport::pruned_surfaces), and so is one still holding a single
-  /// observation MapConfig::unconfirmed_timeout_frames after it was stored. A surface no
+  /// last observed without confirming it, or when no frame has observed it for
+  /// MapConfig::unconfirmed_timeout_frames. A surface no
   /// observation has reached for MapConfig::dormant_after_frames goes dormant (drops its
   /// SurfaceDetail: MergeReport::dormant_surfaces) and is woken, its detail rebuilt from its cells,
   /// when new cells come near it again. Throws InputError on a bad pose.
@@ -360,9 +365,11 @@ class GlobalMap {
   SpatialIndex index_;
   std::unordered_map<std::uint32_t, MapCell> cells_;
   std::unordered_map<std::uint32_t, Surface> surfaces_;
-  /// (frame stored, surface id) of the surfaces stored with a single observation, oldest first:
-  /// the candidates of MapConfig::unconfirmed_timeout_frames (derived state: restore rebuilds it).
-  std::multimap<std::uint64_t, std::uint32_t> single_observation_since_;
+  /// (frame, surface id) of the surfaces not yet confirmed (MapConfig::confirm_frames), at or before
+  /// their last_observed_frame, oldest first: the candidates of MapConfig::unconfirmed_timeout_frames;
+  /// an entry falling due for a surface observed since is put back at that frame (derived state:
+  /// restore rebuilds it).
+  std::multimap<std::uint64_t, std::uint32_t> unconfirmed_since_;
   /// (frame stored, cell id) of the cells the consolidation has not yet considered, oldest first
   /// (derived state: restore rebuilds it from last_frame_id).
   std::deque<std::pair<std::uint64_t, std::uint32_t>> consolidation_queue_;

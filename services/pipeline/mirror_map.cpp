@@ -28,7 +28,10 @@ map::GlobalMap mirror_to_map(const io::MapMirror& mirror, const MapConfig& confi
       surface.mean_rgb += static_cast<float>(area) * Eigen::Vector3f(cell->mean_rgb);
       surface.cells.push_back(cell->id);
       ++surface.observations;
+      surface.last_observed_frame = std::max(surface.last_observed_frame, cell->frame_id);
     }
+    // Updates do not carry the frame counts: each mirrored cell counts as one frame's observation.
+    surface.frames_observed = surface.observations;
     if (surface.observed_area_m2 > 0.0) surface.mean_rgb /= static_cast<float>(surface.observed_area_m2);
     // Dormant (no detail: queries need the cells only); the area of the cells' union.
     surface.area_m2 = map::rebuild_detail(surface, cells, config.footprint_resolution_m).footprint.area_m2();

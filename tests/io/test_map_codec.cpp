@@ -50,6 +50,7 @@ map::Surface awkward_surface() {
   s.cells = {3, 900, 70000, 5};
   s.observations = 300;
   s.last_observed_frame = 123456789;
+  s.frames_observed = 41;
   d.footprint = map::Footprint(0.1);
   const std::vector<Eigen::Vector2d> square{{0.0, 0.0}, {2.0, 0.0}, {2.0, 1.5}, {0.0, 1.5}};
   d.footprint.add_polygon(square);
@@ -70,6 +71,7 @@ TEST(MapCodecTest, SurfaceRoundTripsExactlyInEveryVersion) {
       const auto blob = map_codec::encode_surface(s, version);
       map::Surface expected = s;
       if (version < 7) expected.last_observed_frame = 0;  // not stored before version 7
+      if (version < 8) expected.frames_observed = expected.observations;  // counted from 8 on
       EXPECT_TRUE(map::same_surface(
           map_codec::decode_surface(s.id, blob.data(), blob.size(), "test", version), expected));
     }
@@ -247,8 +249,8 @@ TEST(MapCodecTest, CorruptBlobsAreNamedNotMisread) {
                     (void)map_codec::decode_plane(plane.data(), plane.size(), "cell 4 plane");
                   }),
                   "cell 4 plane: real group flag 9");
-  EXPECT_CONTAINS(storage_error_of([&] { (void)map_codec::encode_plane(Plane3{}, 8); }),
-                  "store version 8");
+  EXPECT_CONTAINS(storage_error_of([&] { (void)map_codec::encode_plane(Plane3{}, 9); }),
+                  "store version 9");
 }
 
 }  // namespace

@@ -310,7 +310,7 @@ TEST(MapStoreTest, OtherFormatVersionIsRejectedByNameAndLeftUnchanged) {
     FAIL() << "expected StorageError";
   } catch (const StorageError& e) {
     const std::string what = e.what();
-    EXPECT_NE(what.find("version '2' is not the version 7"), std::string::npos) << what;
+    EXPECT_NE(what.find("version '2' is not the version 8"), std::string::npos) << what;
     EXPECT_NE(what.find(path.string()), std::string::npos) << what;
   }
   EXPECT_EQ(read_bytes(path), before);
@@ -437,13 +437,28 @@ std::vector<std::string> index_names(const std::filesystem::path& path) {
   return names;
 }
 
-/// Versions 6 (dense histograms, no dormant surfaces, no last observed frame), 5 (as 6 with raw
-/// reals and float vertices) and 4 (as 5 with raw surface blobs and the cells_by_surface index)
-/// are upgraded to version 7: the map and input poses read back are the ones written (every
-/// surface of this drive was observed in its last frame, which the upgrade takes as each
-/// surface's last observed frame), and the store reads as version 7 afterwards.
-TEST(MapStoreTest, VersionSixFiveAndFourStoresAreUpgradedInPlaceAndResume) {
-  for (const int version : {6, 5, 4}) {
+/// What a store of a version before 8 gives back of `map`: each surface's frame count is its
+/// observation count (those versions did not count frames).
+map::GlobalMap with_observations_as_frame_counts(const map::GlobalMap& map) {
+  std::vector<map::MapCell> cells;
+  for (const auto& [id, cell] : map.cells()) cells.push_back(cell);
+  std::vector<map::Surface> surfaces;
+  for (const auto& [id, surface] : map.surfaces()) {
+    surfaces.push_back(surface);
+    surfaces.back().frames_observed = surface.observations;
+  }
+  return map::GlobalMap::restore(map.config(), std::move(cells), std::move(surfaces), map.next_cell_id(),
+                                 map.next_surface_id());
+}
+
+/// Versions 7 (no frame counts), 6 (dense histograms, no dormant surfaces, no last observed
+/// frame), 5 (as 6 with raw reals and float vertices) and 4 (as 5 with raw surface blobs and the
+/// cells_by_surface index) are upgraded to version 8: the map and input poses read back are the
+/// ones written, with each surface's observation count as its frame count (every surface of this
+/// drive was observed in its last frame, which the upgrade from 6 and before takes as each
+/// surface's last observed frame), and the store reads as version 8 afterwards.
+TEST(MapStoreTest, VersionSevenSixFiveAndFourStoresAreUpgradedInPlaceAndResume) {
+  for (const int version : {7, 6, 5, 4}) {
     SCOPED_TRACE(version);
     test::ScratchDir dir;
     const auto path = dir / "old.db";
@@ -455,17 +470,22 @@ TEST(MapStoreTest, VersionSixFiveAndFourStoresAreUpgradedInPlaceAndResume) {
                          written, frame_pose(3));
     }
     for (const auto& [id, surface] : written.surfaces()) ASSERT_EQ(surface.last_observed_frame, 4u);
+    // The drive's surfaces hold more cells than frames: the upgrade changes their counts.
+    ASSERT_TRUE(std::any_of(written.surfaces().begin(), written.surfaces().end(), [](const auto& entry) {
+      return entry.second.observations != entry.second.frames_observed;
+    }));
+    const map::GlobalMap upgraded = with_observations_as_frame_counts(written);
     make_legacy_store(path, version);
     ASSERT_EQ(index_names(path).size(), version == 4 ? 1u : 0u);
     {
       MapStore store(path);
       EXPECT_EQ(store.frame_count(), 5u);
       EXPECT_TRUE(store.input_pose(4)->isApprox(frame_pose(3), 0.0));  // kept through the upgrade
-      EXPECT_TRUE(load_map(store).same_content(written));
+      EXPECT_TRUE(load_map(store).same_content(upgraded));
     }
     EXPECT_TRUE(index_names(path).empty());
-    MapStore again(path);  // version 7 now: read as it is
-    EXPECT_TRUE(load_map(again).same_content(written));
+    MapStore again(path);  // version 8 now: read as it is
+    EXPECT_TRUE(load_map(again).same_content(upgraded));
   }
 }
 
@@ -484,13 +504,13 @@ TEST(MapStoreTest, VersionThreeStoreIsUpgradedInPlaceAndResumes) {
     EXPECT_TRUE(store.pose(2)->isApprox(frame_pose(2), 0.0));
     EXPECT_FALSE(store.input_pose(2).has_value());
     map::GlobalMap resumed = load_map(store);
-    EXPECT_TRUE(resumed.same_content(written));
+    EXPECT_TRUE(resumed.same_content(with_observations_as_frame_counts(written)));
     // New frames record their input pose in the upgraded store.
     const auto report = resumed.integrate(3, frame_pose(3), frame_cells(3));
     store.commit_frame(3, frame_pose(3), report, resumed, frame_pose(2));
     EXPECT_TRUE(store.input_pose(3)->isApprox(frame_pose(2), 0.0));
   }
-  // Reopened: version 7 now, no second upgrade.
+  // Reopened: version 8 now, no second upgrade.
   MapStore again(path);
   EXPECT_EQ(again.frame_count(), 4u);
   EXPECT_TRUE(again.input_pose(3)->isApprox(frame_pose(2), 0.0));

@@ -465,6 +465,76 @@ TEST(Fusion, ASingleViewSurfaceNothingComesNearIsPrunedAfterTheTimeout) {
   EXPECT_TRUE(map.same_content(resumed));
 }
 
+/// A panel across the road of four 1 m cells at z (one surface once the CRF has merged them).
+std::vector<Planecell> panel_cells(float z, std::uint32_t first_id, int bin) {
+  std::vector<Planecell> cells;
+  for (int i = 0; i < 2; ++i)
+    for (int j = 0; j < 2; ++j)
+      cells.push_back(rect_cell(first_id + static_cast<std::uint32_t>(cells.size()),
+                                {-1.0f + i, -0.5f + j, z}, kX, kY, bin));
+  return cells;
+}
+
+TEST(Fusion, ASurfaceOfManyCellsSeenInOneFrameOnlyIsUnconfirmed) {
+  // Two panels of four cells each: one seen in frame 0 only, one in frames 0 and 1. Cells of one
+  // frame confirm nothing: the first goes when its place is seen again three frames later, though
+  // it holds four observations; the second, seen by a second frame, stays.
+  const PruneScene scene;
+  MapConfig config;
+  ASSERT_EQ(config.confirm_frames, 2);
+  ASSERT_EQ(config.unconfirmed_max_age_frames, 3);
+  GlobalMap map(config);
+  std::vector<Planecell> first = scene.road();
+  for (const auto& c : panel_cells(5.0f, 20, 9)) first.push_back(c);   // once
+  for (const auto& c : panel_cells(4.5f, 30, 12)) first.push_back(c);  // twice
+  const auto r0 = map.integrate(0, Pose::Identity(), first);
+  const std::uint32_t once = r0.cell_surfaces[8], twice = r0.cell_surfaces[12];
+  ASSERT_NE(once, twice);
+  for (std::size_t k = 8; k < 12; ++k) ASSERT_EQ(r0.cell_surfaces[k], once);
+  for (std::size_t k = 12; k < 16; ++k) ASSERT_EQ(r0.cell_surfaces[k], twice);
+  EXPECT_EQ(map.surface(once)->observations, 4u);
+  EXPECT_EQ(map.surface(once)->frames_observed, 1u);
+  std::vector<Planecell> second = scene.road();
+  for (const auto& c : panel_cells(4.5f, 30, 12)) second.push_back(c);
+  map.integrate(1, Pose::Identity(), second);
+  EXPECT_EQ(map.surface(twice)->observations, 8u);
+  EXPECT_EQ(map.surface(twice)->frames_observed, 2u);
+  EXPECT_TRUE(map.integrate(2, Pose::Identity(), scene.road()).pruned_surfaces.empty());
+  const auto r3 = map.integrate(3, Pose::Identity(), scene.road());
+  EXPECT_EQ(r3.pruned_surfaces, (std::vector<std::uint32_t>{once}));
+  EXPECT_EQ(map.surface(once), nullptr);
+  EXPECT_NE(map.surface(twice), nullptr);
+}
+
+TEST(Fusion, ConfirmFramesSetsHowManyFramesMustSeeASurface) {
+  // With confirm_frames 3 a panel seen in frames 0 and 1 times out 10 frames after frame 1; one
+  // seen in frames 0, 1 and 2 stays. Panels 40 m off the road: no later cell comes near them.
+  const PruneScene scene;
+  MapConfig config;
+  config.confirm_frames = 3;
+  config.max_range_m = 100.0;
+  config.max_depth_sigma_m = 0.0;
+  config.consolidate_after_frames = 0;
+  const auto panel = [](float x, std::uint32_t id, int bin) { return rect_cell(id, {x, 0.5f, 5.0f}, kX, kY, bin); };
+  GlobalMap map(config);
+  std::uint32_t two = kNoSurface, three = kNoSurface;
+  for (std::uint64_t f = 0; f <= 12; ++f) {
+    std::vector<Planecell> cells = scene.road();
+    if (f <= 1) cells.push_back(panel(40.0f, 40, 9));
+    if (f <= 2) cells.push_back(panel(-40.0f, 41, 12));
+    const auto r = map.integrate(f, Pose::Identity(), cells);
+    if (f == 0) two = r.cell_surfaces[8], three = r.cell_surfaces[9];
+    if (f == 11) {
+      EXPECT_EQ(r.pruned_surfaces, (std::vector<std::uint32_t>{two}));
+    } else {
+      EXPECT_TRUE(r.pruned_surfaces.empty()) << "frame " << f;
+    }
+  }
+  EXPECT_EQ(map.surface(two), nullptr);
+  ASSERT_NE(map.surface(three), nullptr);
+  EXPECT_EQ(map.surface(three)->frames_observed, 3u);
+}
+
 TEST(Fusion, UnconfirmedSurfacesStayWhenPruningIsOff) {
   const PruneScene scene;
   MapConfig config;
