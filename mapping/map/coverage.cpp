@@ -1,6 +1,7 @@
 #include "mapping/map/coverage.hpp"
 
 #include <algorithm>
+#include <boost/container/small_vector.hpp>
 #include <cmath>
 #include <vector>
 
@@ -31,7 +32,8 @@ CoverageGrid coverage_grid(const Plane3& plane, std::span<const Eigen::Vector3f>
   CoverageGrid grid;
   if (vertices.size() < 3 || samples < 1) return grid;
   grid.basis = make_basis(plane, vertex_centroid(vertices));
-  const auto ring = project_to_basis(vertices, grid.basis);
+  boost::container::small_vector<Eigen::Vector2d, 32> ring;
+  for (const auto& v : vertices) ring.push_back(grid.basis.to_2d(v.cast<double>()));
   Eigen::Vector2d lo = ring.front(), hi = ring.front();
   for (const auto& p : ring) lo = lo.cwiseMin(p), hi = hi.cwiseMax(p);
   grid.box = Eigen::AlignedBox2d(lo, hi);
@@ -42,7 +44,8 @@ CoverageGrid coverage_grid(const Plane3& plane, std::span<const Eigen::Vector3f>
   const double step = std::max(std::sqrt(size.x() * size.y() / samples), 1e-6);
   const int nx = std::clamp(static_cast<int>(std::ceil(size.x() / step)), 1, 4 * samples);
   const int ny = std::clamp(static_cast<int>(std::ceil(size.y() / step)), 1, 4 * samples);
-  std::vector<double> crossings;
+  boost::container::small_vector<double, 16> crossings;
+  grid.points.reserve(static_cast<std::size_t>(samples) + static_cast<std::size_t>(samples) / 2);
   for (int j = 0; j < ny; ++j) {
     const double t = lo.y() + (j + 0.5) * size.y() / ny;
     // point_in_ring's even-odd rule, one grid row at a time: the row's crossings
@@ -62,16 +65,7 @@ CoverageGrid coverage_grid(const Plane3& plane, std::span<const Eigen::Vector3f>
 }
 
 double covered_fraction(const CoverageGrid& grid, const CoverageTest& covered, double min_fraction) {
-  if (grid.points.empty()) return 0.0;
-  const auto n = static_cast<double>(grid.points.size());
-  std::size_t misses = 0;
-  for (const auto& st : grid.points) {
-    if (covered(st, grid.basis)) continue;
-    // The share can reach at most (points − misses) / points: below min_fraction, stop here.
-    if (const double best = static_cast<double>(grid.points.size() - ++misses) / n; best < min_fraction)
-      return best;
-  }
-  return static_cast<double>(grid.points.size() - misses) / n;
+  return covered_fraction_by(grid, [&](const Eigen::Vector2d& st) { return covered(st, grid.basis); }, min_fraction);
 }
 
 double covered_fraction(const Plane3& plane, std::span<const Eigen::Vector3f> vertices,
@@ -83,7 +77,12 @@ double covered_fraction(const Plane3& plane, std::span<const Eigen::Vector3f> ve
                         std::span<const std::span<const Eigen::Vector3f>> covering, int samples,
                         double min_fraction) {
   if (covering.empty() || vertices.size() < 3) return 0.0;
-  const CoverageGrid grid = coverage_grid(plane, vertices, samples);
+  return covered_fraction(coverage_grid(plane, vertices, samples), covering, min_fraction);
+}
+
+double covered_fraction(const CoverageGrid& grid, std::span<const std::span<const Eigen::Vector3f>> covering,
+                        double min_fraction) {
+  if (covering.empty() || grid.points.empty()) return 0.0;
   std::vector<BoxedRing> rings;  // the covering polygons whose box meets the cell's
   rings.reserve(covering.size());
   for (const auto polygon : covering) {
@@ -92,11 +91,10 @@ double covered_fraction(const Plane3& plane, std::span<const Eigen::Vector3f> ve
     if (r.box.intersects(grid.box)) rings.push_back(std::move(r));
   }
   if (rings.empty()) return 0.0;
-  return covered_fraction(
+  return covered_fraction_by(
       grid,
-      [&](const Eigen::Vector2d& st, const PlaneBasis&) {
-        return std::any_of(rings.begin(), rings.end(),
-                           [&](const BoxedRing& r) { return r.contains(st); });
+      [&](const Eigen::Vector2d& st) {
+        return std::any_of(rings.begin(), rings.end(), [&](const BoxedRing& r) { return r.contains(st); });
       },
       min_fraction);
 }

@@ -50,6 +50,21 @@ CoverageGrid coverage_grid(const Plane3& plane, std::span<const Eigen::Vector3f>
 /// always exact).
 double covered_fraction(const CoverageGrid& grid, const CoverageTest& covered, double min_fraction = 0.0);
 
+/// covered_fraction(grid, covered, min_fraction) with the test inlined (`covered(st)` → bool).
+template <class Test>
+double covered_fraction_by(const CoverageGrid& grid, Test&& covered, double min_fraction = 0.0) {
+  if (grid.points.empty()) return 0.0;
+  const auto n = static_cast<double>(grid.points.size());
+  std::size_t misses = 0;
+  for (const auto& st : grid.points) {
+    if (covered(st)) continue;
+    // The share can reach at most (points − misses) / points: below min_fraction, stop here.
+    if (const double best = static_cast<double>(grid.points.size() - ++misses) / n; best < min_fraction)
+      return best;
+  }
+  return static_cast<double>(grid.points.size() - misses) / n;
+}
+
 /// Share of the polygon `vertices` (on `plane`) passing `covered`, estimated on its coverage_grid:
 ///   covered ≈ |{grid points in the polygon with covered(st)}| / |{grid points in the polygon}|,
 /// 0 when no grid point falls inside it; `min_fraction` stops early as above.
@@ -64,17 +79,31 @@ double covered_fraction(const Plane3& plane, std::span<const Eigen::Vector3f> ve
                         std::span<const std::span<const Eigen::Vector3f>> covering,
                         int samples = kCoverageSamples, double min_fraction = 0.0);
 
+/// The same on a grid made already (coverage_grid of the covered polygon).
+double covered_fraction(const CoverageGrid& grid, std::span<const std::span<const Eigen::Vector3f>> covering,
+                        double min_fraction = 0.0);
+
+/// covered_fraction of the polygon whose coverage grid is `grid` by the `covering` cells (any cells
+/// with vertices_m: Planecell, MapCell).
+template <class Covering>
+double covered_fraction(const CoverageGrid& grid, const std::vector<const Covering*>& covering,
+                        double min_fraction = 0.0) {
+  std::vector<std::vector<Eigen::Vector3f>> scratch(covering.size());
+  std::vector<std::span<const Eigen::Vector3f>> polygons;
+  polygons.reserve(covering.size());
+  for (std::size_t k = 0; k < covering.size(); ++k)
+    polygons.push_back(as_span(covering[k]->vertices_m, scratch[k]));
+  return covered_fraction(grid, polygons, min_fraction);
+}
+
 /// covered_fraction of `cell` by the `covering` cells (any cells with plane and vertices_m:
 /// Planecell, MapCell).
 template <class Cell, class Covering>
 double covered_fraction(const Cell& cell, const std::vector<const Covering*>& covering,
                         int samples = kCoverageSamples, double min_fraction = 0.0) {
-  std::vector<std::vector<Eigen::Vector3f>> scratch(covering.size() + 1);
-  std::vector<std::span<const Eigen::Vector3f>> polygons;
-  polygons.reserve(covering.size());
-  for (std::size_t k = 0; k < covering.size(); ++k)
-    polygons.push_back(as_span(covering[k]->vertices_m, scratch[k]));
-  return covered_fraction(cell.plane, as_span(cell.vertices_m, scratch.back()), polygons, samples,
+  if (covering.empty()) return 0.0;
+  std::vector<Eigen::Vector3f> scratch;
+  return covered_fraction(coverage_grid(cell.plane, as_span(cell.vertices_m, scratch), samples), covering,
                           min_fraction);
 }
 
@@ -83,6 +112,11 @@ double covered_fraction(const Cell& cell, const std::vector<const Covering*>& co
 template <class Cell, class Covering>
 bool covers_at_least(const Cell& cell, const std::vector<const Covering*>& covering, double min_fraction) {
   return covered_fraction(cell, covering, kCoverageSamples, min_fraction) >= min_fraction;
+}
+/// The same on the cell's coverage grid made already.
+template <class Covering>
+bool covers_at_least(const CoverageGrid& grid, const std::vector<const Covering*>& covering, double min_fraction) {
+  return covered_fraction(grid, covering, min_fraction) >= min_fraction;
 }
 
 }  // namespace planecell::map

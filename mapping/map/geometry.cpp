@@ -78,6 +78,7 @@ BoxedRing::BoxedRing(std::vector<Eigen::Vector2d> ring) : points(std::move(ring)
 
 Polygon2 to_polygon2(std::span<const Eigen::Vector3f> vertices, const PlaneBasis& basis) {
   Polygon2 poly;
+  poly.outer().reserve(vertices.size() + 1);  // + the closing point bg::correct may add
   for (const auto& v : vertices) {
     const Eigen::Vector2d st = basis.to_2d(v.cast<double>());
     bg::append(poly.outer(), Point2(st.x(), st.y()));
@@ -143,7 +144,7 @@ bool polygons_within_m(const Plane3& plane_a, std::span<const Eigen::Vector3f> a
       const Eigen::Vector3d v = vf.cast<double>();
       const Eigen::Vector3d outside =
           (box.min - v).cwiseMax(v - box.max).cwiseMax(Eigen::Vector3d::Zero());
-      if (outside.norm() > max_m || std::abs(plane.signed_distance(v)) > max_m) continue;
+      if (outside.squaredNorm() > max_m2 || std::abs(plane.signed_distance(v)) > max_m) continue;
       // The polygon's distance is min(edge distances), or |plane distance| (≤ max_m, checked above)
       // when v projects inside it: within max_m iff an edge is, or v projects inside. A projection
       // on the outline is within an edge's reach already, so the even-odd test decides the rest.

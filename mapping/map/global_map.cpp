@@ -143,17 +143,17 @@ struct Coverage {
   std::uint32_t surface = kNoSurface; ///< the surface covering most of them
 };
 
-/// Share of `cell` lying in a covering stored cell's polygon (projected onto cell's plane) or in a
-/// covering live surface's footprint (cell's points projected orthogonally onto its basis),
+/// Share of a cell (its coverage_grid `grid`) lying in a covering stored cell's polygon (projected
+/// onto the cell's plane) or in a covering live surface's footprint (the cell's points projected
+/// orthogonally onto its basis),
 /// and the surface that covers most grid points (a stored cell counts for its surface; ties go to
 /// the oldest surface). The grid points (coverage_grid) are tested in order, and the test stops
 /// once the outcome against `min_fraction` is decided:
 /// - the share can no longer reach min_fraction: `fraction` < min_fraction, `surface` unset;
 /// - the share has reached it and no other surface can catch up with the leading one on the
 ///   points left: `fraction` (≥ min_fraction so far) and `surface` as the full test would give.
-Coverage coverage_of(const Planecell& cell, std::span<const MapCell* const> cells,
+Coverage coverage_of(const CoverageGrid& grid, std::span<const MapCell* const> cells,
                      std::span<const Surface* const> surfaces, double min_fraction) {
-  const CoverageGrid grid = coverage_grid(cell.plane, cell.vertices_m);
   if (grid.points.empty()) return {};
   std::vector<BoxedRing> rings;  // the cells projected into the grid's basis
   rings.reserve(cells.size());
@@ -585,6 +585,11 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
       return detail.footprint.rasterise(project_to_basis(cell.vertices_m, detail.basis));
     };
     FootprintRaster raster;
+    std::optional<CoverageGrid> grid;  ///< the cell's coverage_grid, made when a coverage test needs it
+    const auto grid_of = [&]() -> const CoverageGrid& {
+      if (!grid) grid = coverage_grid(cell.plane, cell.vertices_m);
+      return *grid;
+    };
     std::optional<bool> covers_superseded;  ///< covers_at_least(cell, superseded[k]), once computed
     bool settled_by_footprint = false;
     if (root_it != surfaces_.end()) {
@@ -595,7 +600,7 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
           detail.footprint.new_area_m2(raster) < config_.fuse_new_area_fraction * area)
         settled_by_footprint =
             superseded[k].empty() ||
-            !*(covers_superseded = covers_at_least(cell, superseded[k], config_.redundant_coverage));
+            !*(covers_superseded = covers_at_least(grid_of(), superseded[k], config_.redundant_coverage));
     }
     // Space the map already holds (any surface): a re-observation, fused without being stored,
     // into its own label's surface when that exists already, else into the first covering cell's.
@@ -613,7 +618,7 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
       }
     }
     const Coverage coverage = !settled_by_footprint && coverage_rule && (!covering.empty() || !covering_surface.empty())
-                                  ? coverage_of(cell, covering, covering_surface, config_.redundant_coverage)
+                                  ? coverage_of(grid_of(), covering, covering_surface, config_.redundant_coverage)
                                   : Coverage{};
     const bool redundant = coverage.fraction >= config_.redundant_coverage;
     const std::uint32_t cover_surface = coverage.surface;
@@ -657,7 +662,7 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
     // below) instead of being fused: the map keeps the nearer, better view of each place.
     const bool supersedes =
         !redundant && !superseded[k].empty() &&
-        (covers_superseded ? *covers_superseded : covers_at_least(cell, superseded[k], config_.redundant_coverage));
+        (covers_superseded ? *covers_superseded : covers_at_least(grid_of(), superseded[k], config_.redundant_coverage));
     if (had_footprint && !supersedes &&
         (redundant || added < config_.fuse_new_area_fraction * area)) {
       ++report.fused_cells;
@@ -745,7 +750,7 @@ template <class Reject, class Visit>
 std::uint32_t GlobalMap::visit_reached_surfaces(std::uint32_t id, std::span<const Planecell* const> fresh,
                                                 std::span<const std::size_t> ks, std::span<const Aabb> boxes,
                                                 double gap_m, std::set<std::uint32_t>& checked, Reject&& reject,
-                                                Visit&& visit) {
+                                                Visit&& visit, std::span<const std::uint32_t> only_surfaces) {
   std::vector<Aabb> reach;  // each reaching cell's bounds inflated by the gap
   Aabb all;
   for (const Aabb& box : boxes) {
@@ -753,7 +758,19 @@ std::uint32_t GlobalMap::visit_reached_surfaces(std::uint32_t id, std::span<cons
     all.extend(reach.back());
   }
   std::vector<std::uint32_t> nearby;
-  index_.candidates(all, nearby);
+  if (only_surfaces.empty()) {
+    index_.candidates(all, nearby);
+  } else {
+    // The cells of the few surfaces that can pass, whose bounds reach `all` (no index query over
+    // a box many buckets wide), in id order as the index gives them.
+    for (std::uint32_t surface_id : only_surfaces) {
+      const auto it = surfaces_.find(surface_id);
+      if (surface_id == id || it == surfaces_.end() || !Aabb(it->second.bounds).overlaps(all)) continue;
+      for (std::uint32_t cell_id : it->second.cells)
+        if (all.overlaps(cells_.at(cell_id).vertices_m.bounds())) nearby.push_back(cell_id);
+    }
+    std::sort(nearby.begin(), nearby.end());
+  }
   for (std::uint32_t cell_id : nearby) {
     const auto cell_it = cells_.find(cell_id);
     if (cell_it == cells_.end()) continue;
@@ -892,7 +909,12 @@ std::uint32_t GlobalMap::bridge_long(std::uint32_t id, std::span<const Planecell
     if (colour_similarity(sa.histogram, sb.histogram) < config_.bridge_long_min_colour) return self_id;
     return merge_surfaces(self_id, std::move(sa), other_id, std::move(sb), touched, report);
   };
-  return visit_reached_surfaces(id, fresh, ks, boxes, config_.bridge_long_gap_m, checked, reject, visit);
+  // Only large mature surfaces can pass `reject`: the walk visits their cells alone.
+  std::vector<std::uint32_t> large;
+  for (const auto& [other_id, other] : surfaces_)
+    if (other.observations >= mature && other.area_m2 >= min_area) large.push_back(other_id);
+  if (large.empty()) return id;
+  return visit_reached_surfaces(id, fresh, ks, boxes, config_.bridge_long_gap_m, checked, reject, visit, large);
 }
 
 std::uint32_t GlobalMap::merge_surfaces(std::uint32_t a_id, LabelState a, std::uint32_t b_id, LabelState b,

@@ -305,12 +305,14 @@ class GlobalMap {
   /// within `gap_m` (polygons_within_m; the index's candidates in id order), once per surface:
   /// `other` goes into `checked`, then `id = visit(id, old, old's vertices, *fresh[ks[w]])` (a merge
   /// may give `id` another surface). A surface with reject(self, other) goes into `checked`
-  /// unvisited. Returns `id`.
+  /// unvisited. Returns `id`. With `only_surfaces`, the candidates are the cells of those
+  /// surfaces whose bounds overlap the reach (every other surface is one `reject` refuses);
+  /// otherwise the index's candidates in the reach.
   template <class Reject, class Visit>
   std::uint32_t visit_reached_surfaces(std::uint32_t id, std::span<const Planecell* const> fresh,
                                        std::span<const std::size_t> ks, std::span<const Aabb> boxes,
                                        double gap_m, std::set<std::uint32_t>& checked, Reject&& reject,
-                                       Visit&& visit);
+                                       Visit&& visit, std::span<const std::uint32_t> only_surfaces = {});
   /// Is a stored cell of a surface other than `a` and `b` within 0.2 m of `point`?
   bool third_surface_near(const Eigen::Vector3d& point, std::uint32_t a, std::uint32_t b) const;
   /// Does the camera see through the gap at `m` between surfaces `a` and `b`: a third surface
