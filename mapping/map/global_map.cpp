@@ -750,7 +750,7 @@ template <class Reject, class Visit>
 std::uint32_t GlobalMap::visit_reached_surfaces(std::uint32_t id, std::span<const Planecell* const> fresh,
                                                 std::span<const std::size_t> ks, std::span<const Aabb> boxes,
                                                 double gap_m, std::set<std::uint32_t>& checked, Reject&& reject,
-                                                Visit&& visit, std::span<const std::uint32_t> only_surfaces) {
+                                                Visit&& visit, const std::vector<std::uint32_t>* given) {
   std::vector<Aabb> reach;  // each reaching cell's bounds inflated by the gap
   Aabb all;
   for (const Aabb& box : boxes) {
@@ -758,20 +758,8 @@ std::uint32_t GlobalMap::visit_reached_surfaces(std::uint32_t id, std::span<cons
     all.extend(reach.back());
   }
   std::vector<std::uint32_t> nearby;
-  if (only_surfaces.empty()) {
-    index_.candidates(all, nearby);
-  } else {
-    // The cells of the few surfaces that can pass, whose bounds reach `all` (no index query over
-    // a box many buckets wide), in id order as the index gives them.
-    for (std::uint32_t surface_id : only_surfaces) {
-      const auto it = surfaces_.find(surface_id);
-      if (surface_id == id || it == surfaces_.end() || !Aabb(it->second.bounds).overlaps(all)) continue;
-      for (std::uint32_t cell_id : it->second.cells)
-        if (all.overlaps(cells_.at(cell_id).vertices_m.bounds())) nearby.push_back(cell_id);
-    }
-    std::sort(nearby.begin(), nearby.end());
-  }
-  for (std::uint32_t cell_id : nearby) {
+  if (!given) index_.candidates(all, nearby);
+  for (std::uint32_t cell_id : given ? *given : nearby) {
     const auto cell_it = cells_.find(cell_id);
     if (cell_it == cells_.end()) continue;
     const MapCell& old = cell_it->second;
@@ -830,6 +818,7 @@ void GlobalMap::bridge_surfaces(std::span<const Planecell* const> fresh, std::sp
     return other.observations < mature || std::abs(other.plane.normal().dot(self.plane.normal())) < min_cos ||
            std::max(self.area_m2, other.area_m2) < config_.bridge_min_area_m2;
   };
+  std::optional<FrameReach> frame_reach;  // made for the first long bridge that needs it
   for (const auto& [reached_id, ks] : reached) {
     std::uint32_t id = reached_id;  // follows the surface when a merge absorbs it
     if (const auto it = surfaces_.find(id); it == surfaces_.end() || it->second.observations < mature) continue;
@@ -861,14 +850,15 @@ void GlobalMap::bridge_surfaces(std::span<const Planecell* const> fresh, std::sp
             return merge_surfaces(self_id, std::move(a), other_id, std::move(b), touched, report);
           });
     if (config_.bridge_long_gap_m > 0.0)
-      id = bridge_long(id, fresh, ks, boxes, camera_centre, checked, touched, report);
+      id = bridge_long(id, fresh, ks, boxes, camera_centre, checked, frame_reach, touched, report);
   }
 }
 
 std::uint32_t GlobalMap::bridge_long(std::uint32_t id, std::span<const Planecell* const> fresh,
                                      std::span<const std::size_t> ks, std::span<const Aabb> boxes,
                                      const Eigen::Vector3d& camera_centre, std::set<std::uint32_t>& checked,
-                                     std::set<std::uint32_t>& touched, MergeReport& report) {
+                                     std::optional<FrameReach>& frame_reach, std::set<std::uint32_t>& touched,
+                                     MergeReport& report) {
   const auto mature = static_cast<std::uint32_t>(std::max(config_.mature_cells, 1));
   const double min_area = config_.bridge_long_min_area_m2;
   if (const auto it = surfaces_.find(id);
@@ -909,12 +899,31 @@ std::uint32_t GlobalMap::bridge_long(std::uint32_t id, std::span<const Planecell
     if (colour_similarity(sa.histogram, sb.histogram) < config_.bridge_long_min_colour) return self_id;
     return merge_surfaces(self_id, std::move(sa), other_id, std::move(sb), touched, report);
   };
-  // Only large mature surfaces can pass `reject`: the walk visits their cells alone.
-  std::vector<std::uint32_t> large;
-  for (const auto& [other_id, other] : surfaces_)
-    if (other.observations >= mature && other.area_m2 >= min_area) large.push_back(other_id);
-  if (large.empty()) return id;
-  return visit_reached_surfaces(id, fresh, ks, boxes, config_.bridge_long_gap_m, checked, reject, visit, large);
+  // Only large mature surfaces can pass `reject`: the walk visits their cells alone, found among
+  // the stored cells near this frame's (one index query a frame; a walk over each large surface's
+  // cells would grow with the drive, the road being one surface all along it).
+  if (!frame_reach) {
+    frame_reach.emplace();
+    Aabb reach;
+    for (const Planecell* cell : fresh) reach.extend(bounds_of(cell->vertices_m).inflated(config_.bridge_long_gap_m));
+    std::vector<std::uint32_t> ids;
+    index_.candidates(reach, ids);
+    for (std::uint32_t cell_id : ids)
+      if (const auto it = cells_.find(cell_id); it != cells_.end()) frame_reach->cells.push_back({&it->second, {}});
+  }
+  Aabb all;  // as visit_reached_surfaces bounds the reach
+  for (const Aabb& box : boxes) all.extend(box.inflated(config_.bridge_long_gap_m));
+  std::vector<std::uint32_t> given;
+  for (auto& [cell, bounds] : frame_reach->cells) {
+    if (cell->surface == id) continue;
+    const auto it = surfaces_.find(cell->surface);
+    if (it == surfaces_.end() || it->second.observations < mature || it->second.area_m2 < min_area ||
+        !Aabb(it->second.bounds).overlaps(all))
+      continue;
+    if (!bounds) bounds = cell->vertices_m.bounds();
+    if (all.overlaps(*bounds)) given.push_back(cell->id);
+  }
+  return visit_reached_surfaces(id, fresh, ks, boxes, config_.bridge_long_gap_m, checked, reject, visit, &given);
 }
 
 std::uint32_t GlobalMap::merge_surfaces(std::uint32_t a_id, LabelState a, std::uint32_t b_id, LabelState b,

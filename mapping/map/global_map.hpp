@@ -305,14 +305,13 @@ class GlobalMap {
   /// within `gap_m` (polygons_within_m; the index's candidates in id order), once per surface:
   /// `other` goes into `checked`, then `id = visit(id, old, old's vertices, *fresh[ks[w]])` (a merge
   /// may give `id` another surface). A surface with reject(self, other) goes into `checked`
-  /// unvisited. Returns `id`. With `only_surfaces`, the candidates are the cells of those
-  /// surfaces whose bounds overlap the reach (every other surface is one `reject` refuses);
-  /// otherwise the index's candidates in the reach.
+  /// unvisited. Returns `id`. The candidates are `given` (stored cell ids in id order) when given,
+  /// else the index's candidates in the reach.
   template <class Reject, class Visit>
   std::uint32_t visit_reached_surfaces(std::uint32_t id, std::span<const Planecell* const> fresh,
                                        std::span<const std::size_t> ks, std::span<const Aabb> boxes,
                                        double gap_m, std::set<std::uint32_t>& checked, Reject&& reject,
-                                       Visit&& visit, std::span<const std::uint32_t> only_surfaces = {});
+                                       Visit&& visit, const std::vector<std::uint32_t>* given = nullptr);
   /// Is a stored cell of a surface other than `a` and `b` within 0.2 m of `point`?
   bool third_surface_near(const Eigen::Vector3d& point, std::uint32_t a, std::uint32_t b) const;
   /// Does the camera see through the gap at `m` between surfaces `a` and `b`: a third surface
@@ -322,11 +321,17 @@ class GlobalMap {
   /// MapConfig::bridge_long_gap_m: merges surface `id` (reached by the cells fresh[k], k in `ks`,
   /// with bounds `boxes`) with large surfaces on its plane across a gap that an occluder hides
   /// and nothing else fills; `checked` holds the surfaces already tested against it. Returns the
-  /// id it ends under.
+  /// id it ends under. `frame_reach`: the stored cells within bridge_long_gap_m of any of this
+  /// frame's cells, made by the first call of the frame that needs it.
+  struct FrameReach {
+    /// The index's candidates, in id order, each with its bounds once decoded.
+    std::vector<std::pair<const MapCell*, std::optional<Aabb>>> cells;
+  };
   std::uint32_t bridge_long(std::uint32_t id, std::span<const Planecell* const> fresh,
                             std::span<const std::size_t> ks, std::span<const Aabb> boxes,
                             const Eigen::Vector3d& camera_centre, std::set<std::uint32_t>& checked,
-                            std::set<std::uint32_t>& touched, MergeReport& report);
+                            std::optional<FrameReach>& frame_reach, std::set<std::uint32_t>& touched,
+                            MergeReport& report);
 
   /// The end of integrate() and settle(): consolidation as of `consolidation_frame`, dormancy as
   /// of `dormancy_frame`, then the report's lists as consumers read them (relabelled cells that

@@ -1098,13 +1098,14 @@ struct LongBridgeCase {
   }();
   bool occluder = true;
   bool road_in_gap = false;
+  float first_from_z = 8.0f;  ///< where the first patch begins (it ends at z = 12)
   float raise_m = 0.0f;
   int second_bin = 0;
   std::vector<MergeReport> reports;
   std::size_t run() {
     GlobalMap map(config);
     std::vector<Planecell> first, second;
-    test::tile(first, {-3, 1.5f, 8}, kX, kZ, 6, 4, 1, 0, 0);
+    test::tile(first, {-3, 1.5f, first_from_z}, kX, kZ, 6, 12.0f - first_from_z, 1, 0, 0);
     if (occluder) test::tile(first, {-2, 0.2f, 5}, kX, kY, 4, 0.7f, 1, 0, 7);
     if (road_in_gap) test::tile(first, {-3, 1.65f, 13}, kX, kZ, 6, 8, 2, 0, 9);
     test::tile(second, {-3, 1.5f - raise_m, 22}, kX, kZ, 6, 4, 1, 0, second_bin);
@@ -1122,6 +1123,19 @@ TEST(Bridge, LargeSurfacesOfOnePlaneMergeAcrossALongGapAnOccluderHides) {
   const SurfaceMerge merge = c.reports[1].surface_merges[0];
   EXPECT_EQ(merge.into, c.reports[0].cell_surfaces[0]);  // the older patch absorbs the newer
   EXPECT_EQ(merge.absorbed, c.reports[1].cell_surfaces[0]);
+}
+
+TEST(Bridge, ALongBridgeFindsTheNearEndOfASurfaceThatRunsFarBack) {
+  // The first patch runs back 70 m (z ∈ [−58, 12], 420 cells in one surface): the long bridge
+  // finds its cells near the second patch among the stored cells within reach of this frame.
+  LongBridgeCase c;
+  c.first_from_z = -58.0f;
+  EXPECT_EQ(c.run(), 2u);
+  ASSERT_EQ(c.reports[1].surface_merges.size(), 1u);
+  EXPECT_EQ(c.reports[1].surface_merges[0].into, c.reports[0].cell_surfaces[0]);
+  c.occluder = false;  // and still not across a gap the camera saw open
+  EXPECT_EQ(c.run(), 2u);
+  EXPECT_TRUE(c.reports[1].surface_merges.empty());
 }
 
 TEST(Bridge, NoLongBridgeWhenOffSeenOpenlyFilledSteppedOrOfAnotherColour) {
