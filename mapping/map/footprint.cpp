@@ -133,6 +133,7 @@ double Footprint::add(const FootprintRaster& raster) {
     added += static_cast<std::size_t>(std::popcount(bits & ~row));
     row |= bits;
   });
+  bits_ += added;
   return static_cast<double>(added) * resolution_m_ * resolution_m_;
 }
 
@@ -145,14 +146,8 @@ bool Footprint::add_point(double s, double t) {
   const std::uint32_t bit = 1u << static_cast<int>(i - static_cast<std::int64_t>(ti) * N);
   const bool was_clear = (row & bit) == 0;
   row |= bit;
+  bits_ += was_clear ? 1 : 0;
   return was_clear;
-}
-
-double Footprint::area_m2() const {
-  std::size_t bits = 0;
-  for (const auto& tile : tiles_)
-    for (std::uint32_t row : tile.rows) bits += static_cast<std::size_t>(std::popcount(row));
-  return static_cast<double>(bits) * resolution_m_ * resolution_m_;
 }
 
 bool Footprint::contains(double s, double t) const {
@@ -183,6 +178,8 @@ Footprint Footprint::from_tiles(double resolution_m, std::vector<FootprintTile> 
     if (!(std::pair(tiles[k - 1].s, tiles[k - 1].t) < std::pair(tiles[k].s, tiles[k].t)))
       throw StorageError("footprint tiles are not strictly sorted");
   f.tiles_ = std::move(tiles);
+  for (const auto& tile : f.tiles_)
+    for (std::uint32_t row : tile.rows) f.bits_ += static_cast<std::size_t>(std::popcount(row));
   return f;
 }
 

@@ -54,8 +54,9 @@ class Footprint {
   /// Marks the bit containing (s, t); returns true if it was clear.
   bool add_point(double s, double t);
 
-  /// Covered area: set bits · res² (m²).
-  double area_m2() const;
+  /// Covered area: set bits · res² (m²), from a running count of the set bits (a long surface's
+  /// footprint, the road's, spans the whole drive: no walk over its tiles).
+  double area_m2() const { return static_cast<double>(bits_) * resolution_m_ * resolution_m_; }
   /// True when the bit containing (s, t) is set.
   bool contains(double s, double t) const;
   /// Centres (s, t) of every set bit, in tile order.
@@ -77,6 +78,7 @@ class Footprint {
 
   double resolution_m_ = 0.1;
   std::vector<FootprintTile> tiles_;  ///< sorted by (s, t)
+  std::size_t bits_ = 0;              ///< set bits in tiles_
 };
 
 }  // namespace planecell::map

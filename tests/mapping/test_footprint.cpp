@@ -79,8 +79,11 @@ TEST(Footprint, PointsAndRebuildFromTiles) {
   EXPECT_FALSE(f.add_point(1.19, -0.21));  // same 0.2 m bit [1.0, 1.2) × [−0.4, −0.2)
   EXPECT_TRUE(f.contains(1.1, -0.3));
   EXPECT_NEAR(f.area_m2(), 0.04, 1e-12);
-  const Footprint copy = Footprint::from_tiles(0.2, {f.tiles().begin(), f.tiles().end()});
+  Footprint copy = Footprint::from_tiles(0.2, {f.tiles().begin(), f.tiles().end()});
   EXPECT_EQ(copy, f);
+  EXPECT_NEAR(copy.area_m2(), 0.04, 1e-12);  // the rebuilt footprint counts its bits
+  EXPECT_TRUE(copy.add_point(-5.0, 7.0));     // a second tile
+  EXPECT_NEAR(copy.area_m2(), 0.08, 1e-12);
 }
 
 TEST(Footprint, BadInputIsRejectedOrIgnored) {
