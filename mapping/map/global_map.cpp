@@ -738,7 +738,7 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
     surface.histogram_weight_m2 = static_cast<float>(state.histogram_weight_m2);
   }
   if (config_.bridge_gap_m > 0.0 || config_.bridge_long_gap_m > 0.0)
-    bridge_surfaces(fresh, fresh_input, camera_centre, touched, report);
+    bridge_surfaces(fresh, fresh_input, fresh_box, camera_centre, touched, report);
   age_and_finish(frame_id, frame_id, touched, report);
   next_surface_id_ += static_cast<std::uint32_t>(fresh.size());
   report.merge_ms =
@@ -803,6 +803,7 @@ bool GlobalMap::seen_through(const Eigen::Vector3d& m, const Eigen::Vector3d& ca
 }
 
 void GlobalMap::bridge_surfaces(std::span<const Planecell* const> fresh, std::span<const std::size_t> fresh_input,
+                                std::span<const Aabb> fresh_box,
                                 const Eigen::Vector3d& camera_centre, std::set<std::uint32_t>& touched,
                                 MergeReport& report) {
   const auto mature = static_cast<std::uint32_t>(std::max(config_.mature_cells, 1));
@@ -823,7 +824,7 @@ void GlobalMap::bridge_surfaces(std::span<const Planecell* const> fresh, std::sp
     std::uint32_t id = reached_id;  // follows the surface when a merge absorbs it
     if (const auto it = surfaces_.find(id); it == surfaces_.end() || it->second.observations < mature) continue;
     std::vector<Aabb> boxes;  // each reaching cell's bounds
-    for (std::size_t k : ks) boxes.push_back(bounds_of(fresh[k]->vertices_m));
+    for (std::size_t k : ks) boxes.push_back(fresh_box[k]);
     std::set<std::uint32_t> checked;  // other surfaces tested against this one
     if (config_.bridge_gap_m > 0.0)
       id = visit_reached_surfaces(
@@ -850,12 +851,14 @@ void GlobalMap::bridge_surfaces(std::span<const Planecell* const> fresh, std::sp
             return merge_surfaces(self_id, std::move(a), other_id, std::move(b), touched, report);
           });
     if (config_.bridge_long_gap_m > 0.0)
-      id = bridge_long(id, fresh, ks, boxes, camera_centre, checked, frame_reach, touched, report);
+      id = bridge_long(id, fresh, fresh_box, ks, boxes, camera_centre, checked, frame_reach, touched,
+                       report);
   }
 }
 
 std::uint32_t GlobalMap::bridge_long(std::uint32_t id, std::span<const Planecell* const> fresh,
-                                     std::span<const std::size_t> ks, std::span<const Aabb> boxes,
+                                     std::span<const Aabb> fresh_box, std::span<const std::size_t> ks,
+                                     std::span<const Aabb> boxes,
                                      const Eigen::Vector3d& camera_centre, std::set<std::uint32_t>& checked,
                                      std::optional<FrameReach>& frame_reach, std::set<std::uint32_t>& touched,
                                      MergeReport& report) {
@@ -905,7 +908,7 @@ std::uint32_t GlobalMap::bridge_long(std::uint32_t id, std::span<const Planecell
   if (!frame_reach) {
     frame_reach.emplace();
     Aabb reach;
-    for (const Planecell* cell : fresh) reach.extend(bounds_of(cell->vertices_m).inflated(config_.bridge_long_gap_m));
+    for (const Aabb& box : fresh_box) reach.extend(box.inflated(config_.bridge_long_gap_m));
     std::vector<std::uint32_t> ids;
     index_.candidates(reach, ids);
     for (std::uint32_t cell_id : ids)

@@ -296,10 +296,11 @@ class GlobalMap {
                       MergeReport& report);
   /// MapConfig::bridge_gap_m: merges mature surfaces that this frame's cells (`fresh`, whose
   /// surfaces report.cell_surfaces names at input index fresh_input[k]) reach across a hidden gap,
-  /// as events in `report`; `touched` follows the merges.
+  /// as events in `report`; `touched` follows the merges. fresh_box[k]: fresh[k]'s bounds (as
+  /// integrate computed them).
   void bridge_surfaces(std::span<const Planecell* const> fresh, std::span<const std::size_t> fresh_input,
-                       const Eigen::Vector3d& camera_centre, std::set<std::uint32_t>& touched,
-                       MergeReport& report);
+                       std::span<const Aabb> fresh_box, const Eigen::Vector3d& camera_centre,
+                       std::set<std::uint32_t>& touched, MergeReport& report);
   /// The bridges' walk: for each surface other than `id` and not in `checked` with a stored cell
   /// `old` that one of this frame's cells fresh[ks[w]] (bounds boxes[w]) of surface `id` reaches
   /// within `gap_m` (polygons_within_m; the index's candidates in id order), once per surface:
@@ -328,7 +329,7 @@ class GlobalMap {
     std::vector<std::pair<const MapCell*, std::optional<Aabb>>> cells;
   };
   std::uint32_t bridge_long(std::uint32_t id, std::span<const Planecell* const> fresh,
-                            std::span<const std::size_t> ks, std::span<const Aabb> boxes,
+                            std::span<const Aabb> fresh_box, std::span<const std::size_t> ks, std::span<const Aabb> boxes,
                             const Eigen::Vector3d& camera_centre, std::set<std::uint32_t>& checked,
                             std::optional<FrameReach>& frame_reach, std::set<std::uint32_t>& touched,
                             MergeReport& report);
