@@ -152,12 +152,15 @@ std::vector<CellUnion> unite_cells(std::span<const std::span<const Eigen::Vector
     if (cells[i].mask.empty()) continue;
     const cv::Mat own = owner(cells[i].box);
     std::vector<std::size_t>& list = in_regions[i];
-    for (int y = 0; y < own.rows; ++y)
+    for (int y = 0; y < own.rows; ++y) {
+      const auto* held = cells[i].mask.ptr<std::uint8_t>(y);
+      const auto* region_of_bit = own.ptr<int>(y);
       for (int x = 0; x < own.cols; ++x)
-        if (cells[i].mask.at<std::uint8_t>(y, x)) {
-          const auto r = static_cast<std::size_t>(own.at<int>(y, x) - 1);
+        if (held[x]) {
+          const auto r = static_cast<std::size_t>(region_of_bit[x] - 1);
           if (std::find(list.begin(), list.end(), r) == list.end()) list.push_back(r);
         }
+    }
     for (std::size_t r : list) ++polygon_count[r];
   }
   std::vector<bool> candidate(m), member(n, false);
