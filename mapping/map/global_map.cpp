@@ -458,13 +458,25 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
     }
   };
   std::unordered_map<std::uint32_t, MetCell> met_cells;
-  /// A stored cell that may cover a new one (not much less precise than it): its tolerances, and
-  /// whether it is a neighbour of the new cell (within the gap already).
+  /// A stored cell that may cover a new one (not much less precise than it), and whether it is a
+  /// neighbour of the new cell (within the gap already); its tolerances are made when tested.
   struct CoveringTest {
     MetCell* met = nullptr;
-    double angle_deg = 0.0;
-    double tol = 0.0;
     bool neighbour = false;
+  };
+  /// The coverage tolerances of new cell k against a stored cell of depth noise old_sigma_m: the
+  /// noise r·√(σ_new² + σ_old²) (r = redundant_sigma_factor) clamped to [gap, reach] as the
+  /// distance, and the normal angle base + atan(noise / √area_k), at most 2·base.
+  struct Tolerances {
+    double angle_deg;
+    double tol;
+  };
+  const auto tolerances_of = [&](std::size_t k, float old_sigma_m) {
+    const double sigma = std::hypot(static_cast<double>(fresh[k]->depth_sigma_m), static_cast<double>(old_sigma_m));
+    const double noise = config_.redundant_sigma_factor * sigma;
+    const double base_deg = config_.redundant_normal_angle_deg;
+    return Tolerances{std::min(2.0 * base_deg, base_deg + std::atan(noise / std::sqrt(fresh_area[k])) * 180.0 / M_PI),
+                      std::clamp(noise, gap, reach)};
   };
   /// Does the stored cell cover the new cell: its polygon within tol of the new cell's plane,
   /// normals within angle_deg, the polygons within tol of each other.
@@ -526,19 +538,19 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
       if (std::abs(cell.plane.normal.dot(old.plane.normal())) < min_coverage_cos &&
           std::abs(cell.plane.normal.dot(surface.plane.normal())) < min_coverage_cos)
         continue;
-      const double sigma = std::hypot(static_cast<double>(cell.depth_sigma_m),
-                                      static_cast<double>(old.depth_sigma_m));
       const bool less_precise =
           old.depth_sigma_m > config_.redundant_precision_ratio * cell.depth_sigma_m;
-      const double noise = config_.redundant_sigma_factor * sigma;
-      const double tol = std::clamp(noise, gap, reach);
-      const double base_deg = config_.redundant_normal_angle_deg;
-      const double angle_deg =
-          std::min(2.0 * base_deg, base_deg + std::atan(noise / std::sqrt(fresh_area[k])) * 180.0 / M_PI);
-      if (!less_precise)
-        covering_tests[k].push_back({&met_cell, angle_deg, tol, neighbour});  // when needed (step 5)
-      else if (covers_test(cell, box, met_cell, angle_deg, tol, neighbour))
+      std::optional<Tolerances> tolerances;  // made for the first test that needs them
+      const auto tolerances_here = [&]() -> const Tolerances& {
+        if (!tolerances) tolerances = tolerances_of(k, old.depth_sigma_m);
+        return *tolerances;
+      };
+      if (!less_precise) {
+        covering_tests[k].push_back({&met_cell, neighbour});  // when needed (step 5)
+      } else if (const Tolerances& t = tolerances_here();
+                 covers_test(cell, box, met_cell, t.angle_deg, t.tol, neighbour)) {
         superseded[k].push_back(&old);
+      }
       // The surface of a nearby cell covers the cell where its footprint (every observation
       // fused into it, stored or not) holds the cell's points, when its plane passes within the
       // cell's own noise (not widened to the neighbour gap: the footprint may hold noisy views)
@@ -547,7 +559,7 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
       if (std::find(candidates.begin(), candidates.end(), old.surface) != candidates.end())
         continue;
       if (effective_sigma_m(surface.information, surface.observed_area_m2) <= max_surface_sigma &&
-          nearly_coplanar(surface.plane, cell.plane, cell.vertices_m, angle_deg, surface_tol)) {
+          nearly_coplanar(surface.plane, cell.plane, cell.vertices_m, tolerances_here().angle_deg, surface_tol)) {
         wake(surfaces_.at(old.surface));  // a dormant surface covers with its rebuilt footprint
         if (!surface.detail->footprint.empty()) candidates.push_back(old.surface);
       }
@@ -608,7 +620,8 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
     std::vector<const MapCell*> covering;          // stored cells covering it
     if (!settled_by_footprint) {
       for (const CoveringTest& test : covering_tests[k])
-        if (covers_test(cell, fresh_box[k], *test.met, test.angle_deg, test.tol, test.neighbour))
+        if (const Tolerances t = tolerances_of(k, test.met->cell->depth_sigma_m);
+            covers_test(cell, fresh_box[k], *test.met, t.angle_deg, t.tol, test.neighbour))
           covering.push_back(test.met->cell);
       for (std::uint32_t id : covering_surfaces[k]) {
         const auto it = surfaces_.find(union_find.find(id));
