@@ -472,11 +472,13 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
     double tol;
   };
   const auto tolerances_of = [&](std::size_t k, float old_sigma_m) {
-    const double sigma = std::hypot(static_cast<double>(fresh[k]->depth_sigma_m), static_cast<double>(old_sigma_m));
+    const double sigma =
+        std::hypot(static_cast<double>(fresh[k]->depth_sigma_m), static_cast<double>(old_sigma_m));
     const double noise = config_.redundant_sigma_factor * sigma;
     const double base_deg = config_.redundant_normal_angle_deg;
-    return Tolerances{std::min(2.0 * base_deg, base_deg + std::atan(noise / std::sqrt(fresh_area[k])) * 180.0 / M_PI),
-                      std::clamp(noise, gap, reach)};
+    const double widened_deg =
+        base_deg + std::atan(noise / std::sqrt(fresh_area[k])) * 180.0 / M_PI;
+    return Tolerances{std::min(2.0 * base_deg, widened_deg), std::clamp(noise, gap, reach)};
   };
   /// Does the stored cell cover the new cell: its polygon within tol of the new cell's plane,
   /// normals within angle_deg, the polygons within tol of each other.
@@ -559,7 +561,8 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
       if (std::find(candidates.begin(), candidates.end(), old.surface) != candidates.end())
         continue;
       if (effective_sigma_m(surface.information, surface.observed_area_m2) <= max_surface_sigma &&
-          nearly_coplanar(surface.plane, cell.plane, cell.vertices_m, tolerances_here().angle_deg, surface_tol)) {
+          nearly_coplanar(surface.plane, cell.plane, cell.vertices_m, tolerances_here().angle_deg,
+                          surface_tol)) {
         wake(surfaces_.at(old.surface));  // a dormant surface covers with its rebuilt footprint
         if (!surface.detail->footprint.empty()) candidates.push_back(old.surface);
       }
@@ -864,17 +867,18 @@ void GlobalMap::bridge_surfaces(std::span<const Planecell* const> fresh, std::sp
             return merge_surfaces(self_id, std::move(a), other_id, std::move(b), touched, report);
           });
     if (config_.bridge_long_gap_m > 0.0)
-      id = bridge_long(id, fresh, fresh_box, ks, boxes, camera_centre, checked, frame_reach, touched,
-                       report);
+      id = bridge_long(id, fresh, fresh_box, ks, boxes, camera_centre, checked, frame_reach,
+                       touched, report);
   }
 }
 
 std::uint32_t GlobalMap::bridge_long(std::uint32_t id, std::span<const Planecell* const> fresh,
-                                     std::span<const Aabb> fresh_box, std::span<const std::size_t> ks,
-                                     std::span<const Aabb> boxes,
-                                     const Eigen::Vector3d& camera_centre, std::set<std::uint32_t>& checked,
-                                     std::optional<FrameReach>& frame_reach, std::set<std::uint32_t>& touched,
-                                     MergeReport& report) {
+                                     std::span<const Aabb> fresh_box,
+                                     std::span<const std::size_t> ks, std::span<const Aabb> boxes,
+                                     const Eigen::Vector3d& camera_centre,
+                                     std::set<std::uint32_t>& checked,
+                                     std::optional<FrameReach>& frame_reach,
+                                     std::set<std::uint32_t>& touched, MergeReport& report) {
   const auto mature = static_cast<std::uint32_t>(std::max(config_.mature_cells, 1));
   const double min_area = config_.bridge_long_min_area_m2;
   if (const auto it = surfaces_.find(id);

@@ -323,13 +323,14 @@ class GlobalMap {
   /// with bounds `boxes`) with large surfaces on its plane across a gap that an occluder hides
   /// and nothing else fills; `checked` holds the surfaces already tested against it. Returns the
   /// id it ends under. `frame_reach`: the stored cells within bridge_long_gap_m of any of this
-  /// frame's cells, made by the first call of the frame that needs it.
+  /// frame's cells (bounds fresh_box), made by the first call of the frame that needs it.
   struct FrameReach {
     /// The index's candidates, in id order, each with its bounds once decoded.
     std::vector<std::pair<const MapCell*, std::optional<Aabb>>> cells;
   };
   std::uint32_t bridge_long(std::uint32_t id, std::span<const Planecell* const> fresh,
-                            std::span<const Aabb> fresh_box, std::span<const std::size_t> ks, std::span<const Aabb> boxes,
+                            std::span<const Aabb> fresh_box, std::span<const std::size_t> ks,
+                            std::span<const Aabb> boxes,
                             const Eigen::Vector3d& camera_centre, std::set<std::uint32_t>& checked,
                             std::optional<FrameReach>& frame_reach, std::set<std::uint32_t>& touched,
                             MergeReport& report);
