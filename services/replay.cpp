@@ -289,6 +289,7 @@ ReplayReport run_replay(const ReplayOptions& options, const AppConfig& config) {
     report.cells_extracted += work.cells.cells.size();
     report.fused_cells += work.merge.fused_cells;
     report.redundant_cells += work.merge.redundant_cells;
+    report.prefused_cells += work.merge.prefused_cells;
     report.replaced_cells += work.merge.replaced_cells;
     report.consolidated_cells += work.merge.consolidated_cells;
     report.pruned_surfaces += work.merge.pruned_surfaces.size();
@@ -485,6 +486,7 @@ nlohmann::json to_json(const ReplayReport& r) {
                         {"dormant_surfaces", r.dormant_surfaces},
                         {"fused_cells", r.fused_cells},
                         {"redundant_cells", r.redundant_cells},
+                        {"prefused_cells", r.prefused_cells},
                         {"replaced_cells", r.replaced_cells},
                         {"consolidated_cells", r.consolidated_cells},
                         {"pruned_surfaces", r.pruned_surfaces},
@@ -617,7 +619,8 @@ std::string summary_text(const ReplayReport& r) {
       << 100.0 * r.plane_fraction << " % with a plane)\n";
   out << "  map: " << r.cells_in_map << " cells, " << r.surfaces << " surfaces ("
       << r.dormant_surfaces << " dormant), " << r.fused_cells << " re-observations fused ("
-      << r.redundant_cells << " by coverage), " << r.replaced_cells
+      << r.redundant_cells << " by coverage, " << r.prefused_cells
+      << " found before the neighbour search), " << r.replaced_cells
       << " cells replaced by nearer ones, " << r.consolidated_cells << " old cells consolidated, "
       << r.surface_merges << " surface merges, " << r.pruned_surfaces
       << " unconfirmed surfaces pruned\n";

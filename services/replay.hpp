@@ -93,6 +93,8 @@ struct ReplayReport {
   std::size_t dormant_surfaces = 0;  ///< of those, asleep at the end (map.dormant_after_frames)
   std::size_t fused_cells = 0;     ///< re-observations folded into surfaces, not stored
   std::size_t redundant_cells = 0;  ///< of those, space the map already held (coverage rule)
+  /// Of the fused cells, those found before the neighbour search (map.prefuse_reobservations).
+  std::size_t prefused_cells = 0;
   std::size_t replaced_cells = 0;   ///< stored cells replaced by nearer, more precise ones
   std::size_t consolidated_cells =
       0;                            ///< old cells united into fewer (map.consolidate_after_frames)

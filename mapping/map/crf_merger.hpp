@@ -169,14 +169,14 @@ class CrfMerger {
       std::span<const MergeUnit> units, std::span<const MergeEdge> edges,
       std::unordered_map<std::uint32_t, LabelState>& labels, UnionFind& union_find) const;
 
-  const MapConfig& config() const { return config_; }
-
- private:
   /// evaluate() without the gain (0): all the greedy needs to re-check an edge whose labels
-  /// changed since the round's evaluation.
+  /// changed since the round's evaluation, and all GlobalMap needs to find a re-observation.
   EdgeEvaluation evaluate_range(const MergeUnit& a, const LabelState& label_a, const MergeUnit& b,
                                 const LabelState& label_b) const;
 
+  const MapConfig& config() const { return config_; }
+
+ private:
   MapConfig config_;
 };
 

@@ -495,35 +495,138 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
   // a stored cell tilted more against the new cell, and on a surface tilted more, is skipped
   // before the per-pair angle is computed.
   const double min_coverage_cos = std::cos(2.0 * config_.redundant_normal_angle_deg * M_PI / 180.0);
-  for (std::size_t k = 0; k < fresh.size(); ++k) {
+  /// A re-observation found before the neighbour search (MapConfig::prefuse_reobservations):
+  /// the first stored cell within the gap of new cell k (index order) whose surface S is live,
+  /// passes the CRF's variation range with the cell (CrfMerger::evaluate_range) and would gain
+  /// less than fuse_new_area_fraction of the cell's area in its footprint, and S is not known only
+  /// from much less precise views than k's. k then meets S in the
+  /// CRF through that one cell, not through every stored cell near it, and its coverage is not
+  /// collected: if the CRF gives it S's label, step 5 fuses it into S with the raster kept here;
+  /// else step 5 collects its coverage from the candidates kept here (prefused_nearby).
+  std::vector<std::uint32_t> prefused_cell(fresh.size(), kNoSurface);
+  std::vector<std::uint32_t> prefused_surface(fresh.size(), kNoSurface);
+  std::vector<FootprintRaster> prefused_raster(fresh.size());
+  std::vector<std::uint32_t> tried;  // surfaces tested for one new cell (storage reused)
+  const auto find_reobserved = [&](std::size_t k, const Aabb& near_box,
+                                   std::span<const std::uint32_t> ids, const auto& met_of) {
     const Planecell& cell = *fresh[k];
-    const Aabb& box = fresh_box[k];
-    const Aabb near_box = box.inflated(gap);
-    // A surface covering the cell: its plane within the cell's own noise, and its σ_eff at most
-    // redundant_precision_ratio × the cell's σ (floored like the surfaces' moments).
+    tried.clear();
+    for (std::uint32_t id : ids) {
+      MetCell& met = met_of(id);
+      const std::uint32_t surface_id = met.cell->surface;
+      if (!met.box.overlaps(near_box) ||
+          std::find(tried.begin(), tried.end(), surface_id) != tried.end())
+        continue;
+      if (!polygons_within_m(cell.plane, cell.vertices_m, fresh_box[k], met.cell->plane,
+                             met.polygon(), met.box, gap))
+        continue;
+      tried.push_back(surface_id);
+      const Surface& surface = *met.surface;
+      if (!surface.detail || surface.detail->footprint.empty())
+        continue;  // dormant: the regular path
+      // A surface known only from much less precise views: k's nearer view may replace its cells
+      // (superseded), which the regular path decides.
+      if (effective_sigma_m(surface.information, surface.observed_area_m2) >
+          config_.redundant_precision_ratio *
+              std::max<double>(cell.depth_sigma_m, config_.residual_scale_m))
+        return false;
+      const auto state_it = labels.find(surface_id);
+      std::optional<LabelState> made;
+      const LabelState& state =
+          state_it != labels.end() ? state_it->second : made.emplace(state_of_surface(surface));
+      if (!merger_.evaluate_range(units[k], labels.at(units[k].label), units[k], state).in_range)
+        continue;
+      const SurfaceDetail& detail = *surface.detail;
+      FootprintRaster raster =
+          detail.footprint.rasterise(project_to_basis(cell.vertices_m, detail.basis));
+      if (!(detail.footprint.new_area_m2(raster) < config_.fuse_new_area_fraction * fresh_area[k]))
+        continue;
+      if (made) labels.emplace(surface_id, std::move(*made));  // S's label state, for the CRF
+      prefused_cell[k] = id;
+      prefused_surface[k] = surface_id;
+      prefused_raster[k] = std::move(raster);
+      return true;
+    }
+    return false;
+  };
+  std::vector<std::vector<std::uint32_t>> prefused_nearby(fresh.size());  ///< their candidates
+  /// Coverage between new cell k and the stored cell `met` (on `surface`; `neighbour`: within
+  /// the gap): whether k covers it and it is much less precise (superseded), or else whether it
+  /// may cover k (covering_tests, tested in step 5); and whether its surface may cover k
+  /// (covering_surfaces).
+  const auto collect_coverage = [&](std::size_t k, MetCell& met, const Surface& surface,
+                                    bool neighbour) {
+    const Planecell& cell = *fresh[k];
+    const MapCell& old = *met.cell;
+    if (std::abs(cell.plane.normal.dot(old.plane.normal())) < min_coverage_cos &&
+        std::abs(cell.plane.normal.dot(surface.plane.normal())) < min_coverage_cos)
+      return;
+    const bool less_precise =
+        old.depth_sigma_m > config_.redundant_precision_ratio * cell.depth_sigma_m;
+    std::optional<Tolerances> tolerances;  // made for the first test that needs them
+    const auto tolerances_here = [&]() -> const Tolerances& {
+      if (!tolerances) tolerances = tolerances_of(k, old.depth_sigma_m);
+      return *tolerances;
+    };
+    if (!less_precise) {
+      covering_tests[k].push_back({&met, neighbour});  // when needed (step 5)
+    } else if (const Tolerances& t = tolerances_here();
+               covers_test(cell, fresh_box[k], met, t.angle_deg, t.tol, neighbour)) {
+      superseded[k].push_back(&old);
+    }
+    // The surface of a nearby cell covers the cell where its footprint (every observation
+    // fused into it, stored or not) holds the cell's points, when its plane passes within the
+    // cell's own noise (not widened to the neighbour gap: the footprint may hold noisy views)
+    // and it is not much less precise than the cell (then the cell is stored, as above): its
+    // plane within the cell's own noise, and its σ_eff at most redundant_precision_ratio × the
+    // cell's σ (floored like the surfaces' moments).
+    auto& candidates = covering_surfaces[k];
+    if (std::find(candidates.begin(), candidates.end(), old.surface) != candidates.end()) return;
     const double surface_tol = std::clamp(config_.redundant_sigma_factor * cell.depth_sigma_m,
                                           config_.residual_scale_m, reach);
     const double max_surface_sigma =
         config_.redundant_precision_ratio *
         std::max<double>(cell.depth_sigma_m, config_.residual_scale_m);
+    if (effective_sigma_m(surface.information, surface.observed_area_m2) <= max_surface_sigma &&
+        nearly_coplanar(surface.plane, cell.plane, cell.vertices_m, tolerances_here().angle_deg,
+                        surface_tol)) {
+      wake(surfaces_.at(old.surface));  // a dormant surface covers with its rebuilt footprint
+      if (!surface.detail->footprint.empty()) candidates.push_back(old.surface);
+    }
+  };
+  for (std::size_t k = 0; k < fresh.size(); ++k) {
+    const Planecell& cell = *fresh[k];
+    const Aabb& box = fresh_box[k];
+    const Aabb near_box = box.inflated(gap);
     // The index's candidates, filtered by their bounds.
     const Aabb reach_box = box.inflated(reach);
     index_.candidates(reach_box, nearby);
-    for (std::uint32_t id : nearby) {
+    const auto met_of = [&](std::uint32_t id) -> MetCell& {
       auto [met, first_time] = met_cells.try_emplace(id);
       if (first_time) {
         const MapCell& c = cells_.at(id);
         met->second = {&c, &surfaces_.at(c.surface), bounds_of(c.vertices_m), {}};
       }
-      MetCell& met_cell = met->second;
+      return met->second;
+    };
+    const bool prefused =
+        config_.prefuse_reobservations && find_reobserved(k, near_box, nearby, met_of);
+    for (std::uint32_t id : nearby) {
+      MetCell& met_cell = met_of(id);
       const MapCell& old = *met_cell.cell;
       const Aabb& old_box = met_cell.box;
       if (!old_box.overlaps(reach_box)) continue;
-      const Surface& surface = *met->second.surface;
+      const Surface& surface = *met_cell.surface;
       if (max_age > 0 && surface.frames_observed < confirm && surface.last_observed_frame + max_age <= frame_id)
         unconfirmed.insert(old.surface);
-      const bool neighbour = near_box.overlaps(old_box) &&
-                             polygons_within_m(cell.plane, cell.vertices_m, box, old.plane, met_cell.polygon(), old_box, gap);
+      // A settled re-observation meets its surface through one cell (and, with keep_others, the
+      // other surfaces' cells near it).
+      // A settled re-observation meets its surface through that one cell.
+      const bool neighbour =
+          prefused ? id == prefused_cell[k]
+                   : near_box.overlaps(old_box) &&
+                         polygons_within_m(cell.plane, cell.vertices_m, box, old.plane,
+                                           met_cell.polygon(), old_box, gap);
       if (neighbour) {
         auto [it, inserted] = unit_of_map_cell.try_emplace(id, static_cast<std::uint32_t>(units.size()));
         if (inserted) {
@@ -537,36 +640,10 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
                          std::sqrt(std::min(fresh_area[k], units[it->second].area_m2))});
       }
       if (!coverage_rule) continue;
-      if (std::abs(cell.plane.normal.dot(old.plane.normal())) < min_coverage_cos &&
-          std::abs(cell.plane.normal.dot(surface.plane.normal())) < min_coverage_cos)
-        continue;
-      const bool less_precise =
-          old.depth_sigma_m > config_.redundant_precision_ratio * cell.depth_sigma_m;
-      std::optional<Tolerances> tolerances;  // made for the first test that needs them
-      const auto tolerances_here = [&]() -> const Tolerances& {
-        if (!tolerances) tolerances = tolerances_of(k, old.depth_sigma_m);
-        return *tolerances;
-      };
-      if (!less_precise) {
-        covering_tests[k].push_back({&met_cell, neighbour});  // when needed (step 5)
-      } else if (const Tolerances& t = tolerances_here();
-                 covers_test(cell, box, met_cell, t.angle_deg, t.tol, neighbour)) {
-        superseded[k].push_back(&old);
-      }
-      // The surface of a nearby cell covers the cell where its footprint (every observation
-      // fused into it, stored or not) holds the cell's points, when its plane passes within the
-      // cell's own noise (not widened to the neighbour gap: the footprint may hold noisy views)
-      // and it is not much less precise than the cell (then the cell is stored, as above).
-      auto& candidates = covering_surfaces[k];
-      if (std::find(candidates.begin(), candidates.end(), old.surface) != candidates.end())
-        continue;
-      if (effective_sigma_m(surface.information, surface.observed_area_m2) <= max_surface_sigma &&
-          nearly_coplanar(surface.plane, cell.plane, cell.vertices_m, tolerances_here().angle_deg,
-                          surface_tol)) {
-        wake(surfaces_.at(old.surface));  // a dormant surface covers with its rebuilt footprint
-        if (!surface.detail->footprint.empty()) candidates.push_back(old.surface);
-      }
+      // A re-observation found first is tested for coverage only if step 5 needs it after all.
+      if (!prefused) collect_coverage(k, met_cell, surface, neighbour);
     }
+    if (prefused) prefused_nearby[k] = nearby;
   }
 
   // 3. Circular greedy CRF merging.
@@ -610,9 +687,16 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
     if (root_it != surfaces_.end()) {
       wake(root_it->second);  // a CRF label already: live
       const SurfaceDetail& detail = *root_it->second.detail;
-      raster = raster_on(detail);
-      if (!detail.footprint.empty() &&
-          detail.footprint.new_area_m2(raster) < config_.fuse_new_area_fraction * area)
+      if (prefused_surface[k] == root) {
+        // Found first on this surface: its footprint has only grown since (step 4's merges, this
+        // step's earlier cells), so the cell still adds less than the fraction; its superseded
+        // cells are not collected.
+        raster = std::move(prefused_raster[k]);
+        settled_by_footprint = true;
+        ++report.prefused_cells;
+      } else if (raster = raster_on(detail);
+                 !detail.footprint.empty() &&
+                 detail.footprint.new_area_m2(raster) < config_.fuse_new_area_fraction * area)
         settled_by_footprint =
             superseded[k].empty() ||
             !*(covers_superseded = covers_at_least(grid_of(), superseded[k], config_.redundant_coverage));
@@ -622,6 +706,12 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
     std::vector<const Surface*> covering_surface;  // alive after step 4's merges
     std::vector<const MapCell*> covering;          // stored cells covering it
     if (!settled_by_footprint) {
+      // A re-observation found first that the CRF labelled otherwise: its coverage after all, by
+      // the stored cells near it as they are now (their surfaces after step 4's merges).
+      const Aabb reach_box = fresh_box[k].inflated(reach);
+      for (std::uint32_t id : prefused_nearby[k])
+        if (MetCell& met = met_cells.at(id); met.box.overlaps(reach_box))
+          collect_coverage(k, met, surfaces_.at(met.cell->surface), false);
       for (const CoveringTest& test : covering_tests[k])
         if (const Tolerances t = tolerances_of(k, test.met->cell->depth_sigma_m);
             covers_test(cell, fresh_box[k], *test.met, t.angle_deg, t.tol, test.neighbour))

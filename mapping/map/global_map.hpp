@@ -119,6 +119,9 @@ struct MergeReport {
   std::size_t rejected_cells = 0; ///< planeless, degenerate, beyond max_range_m or max_depth_sigma_m, below min_inlier_ratio
   std::size_t fused_cells = 0;    ///< re-observations folded into a surface, not stored
   std::size_t redundant_cells = 0;  ///< of those, fused by coverage (MapConfig::redundant_coverage)
+  /// Of the fused cells, those found as re-observations before the neighbour search
+  /// (MapConfig::prefuse_reobservations).
+  std::size_t prefused_cells = 0;
   std::vector<std::uint32_t> added_cells;       ///< new stored cells (map ids)
   std::vector<std::uint32_t> relabelled_cells;  ///< existing cells whose surface changed
   std::size_t replaced_cells = 0;  ///< stored cells replaced by a nearer, more precise new cell

@@ -175,6 +175,7 @@ TEST(Coverage, NearPreciseCellsReplaceAFarNoisyCellTheyCover) {
   Planecell near_a = road(0, 0), near_b = road(1, 1);
   near_a.depth_sigma_m = near_b.depth_sigma_m = 0.02f;
   const auto r = map.integrate(1, above, std::vector{near_a, near_b});
+  EXPECT_EQ(r.prefused_cells, 0u);  // a surface known only from 20× noisier views: not found first
   EXPECT_EQ(r.added_cells.size(), 2u);
   EXPECT_EQ(r.replaced_cells, 1u);
   EXPECT_EQ(r.removed_cells, std::vector<std::uint32_t>{big_id});
@@ -182,9 +183,45 @@ TEST(Coverage, NearPreciseCellsReplaceAFarNoisyCellTheyCover) {
   EXPECT_EQ(map.cells().size(), 3u);
   // Frame 2: the same near squares once more add nothing (covered by equally precise cells).
   const auto again = map.integrate(2, above, std::vector{near_a, near_b});
+  EXPECT_EQ(again.prefused_cells, 2u);  // now the surface holds views as precise as these
   EXPECT_TRUE(again.added_cells.empty());
   EXPECT_TRUE(again.removed_cells.empty());
   EXPECT_EQ(map.cells().size(), 3u);
+}
+
+/// MapConfig::prefuse_reobservations: a new cell inside its surface's footprint, in the CRF's range
+/// of it, is found as a re-observation before the neighbour search and fused as the regular path
+/// fuses it; one adding more than fuse_new_area_fraction of new space, or out of the CRF's range
+/// (another colour), takes the regular path.
+TEST(Coverage, AReobservationIsFoundBeforeTheNeighbourSearch) {
+  for (const bool first : {true, false}) {
+    SCOPED_TRACE(first ? "found first" : "regular path");
+    MapConfig config;
+    config.prefuse_reobservations = first;
+    GlobalMap map(config);
+    (void)map.integrate(0, Pose::Identity(), std::vector{road(0, 0)});  // x ∈ [0, 1], stored
+    const std::uint32_t surface = map.cells().at(0).surface;
+    // x ∈ [0.2, 1.2]: 0.2 m² new (< 0.25 of its area), same colour.
+    const auto inside = map.integrate(1, Pose::Identity(), std::vector{road(0, 0.2f)});
+    EXPECT_EQ(inside.prefused_cells, first ? 1u : 0u);
+    EXPECT_EQ(inside.fused_cells, 1u);
+    EXPECT_TRUE(inside.added_cells.empty());
+    EXPECT_EQ(inside.cell_surfaces[0], surface);
+    EXPECT_NEAR(map.surfaces().at(surface).area_m2, 1.2, 0.05);  // its area entered the footprint
+    // x ∈ [0.35, 1.35] in another colour: out of the CRF's range, fused by coverage either way.
+    const auto other_colour =
+        map.integrate(2, Pose::Identity(), std::vector{road(0, 0.35f, 1.0f, 30)});
+    EXPECT_EQ(other_colour.prefused_cells, 0u);
+    EXPECT_EQ(other_colour.redundant_cells, 1u);
+    EXPECT_EQ(other_colour.cell_surfaces[0], surface);
+    // x ∈ [0.7, 1.7]: half of it new space, stored; the CRF still gives it the surface's label.
+    const auto beyond = map.integrate(3, Pose::Identity(), std::vector{road(0, 0.7f)});
+    EXPECT_EQ(beyond.prefused_cells, 0u);
+    EXPECT_EQ(beyond.added_cells.size(), 1u);
+    EXPECT_EQ(beyond.cell_surfaces[0], surface);
+    EXPECT_EQ(map.cells().size(), 2u);
+    EXPECT_EQ(map.surfaces().size(), 1u);
+  }
 }
 
 }  // namespace
