@@ -498,11 +498,12 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
   /// A re-observation found before the neighbour search (MapConfig::prefuse_reobservations):
   /// the first stored cell within the gap of new cell k (index order) whose surface S is live,
   /// passes the CRF's variation range with the cell (CrfMerger::evaluate_range) and would gain
-  /// less than fuse_new_area_fraction of the cell's area in its footprint, and S is not known only
-  /// from much less precise views than k's. k then meets S in the
-  /// CRF through that one cell, not through every stored cell near it, and its coverage is not
-  /// collected: if the CRF gives it S's label, step 5 fuses it into S with the raster kept here;
-  /// else step 5 collects its coverage from the candidates kept here (prefused_nearby).
+  /// less than fuse_new_area_fraction of the cell's area in its footprint. Not when S is known
+  /// only from much less precise views than k's (σ_eff > redundant_precision_ratio · σ_Z): k may
+  /// replace S's cells, which the regular path decides. k then meets S in the CRF through that
+  /// one cell, not through every stored cell near it, and its coverage is not collected: if the
+  /// CRF gives it S's label, step 5 fuses it into S with the raster kept here; else step 5
+  /// collects its coverage from the candidates kept here (prefused_nearby).
   std::vector<std::uint32_t> prefused_cell(fresh.size(), kNoSurface);
   std::vector<std::uint32_t> prefused_surface(fresh.size(), kNoSurface);
   std::vector<FootprintRaster> prefused_raster(fresh.size());
@@ -524,8 +525,7 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
       const Surface& surface = *met.surface;
       if (!surface.detail || surface.detail->footprint.empty())
         continue;  // dormant: the regular path
-      // A surface known only from much less precise views: k's nearer view may replace its cells
-      // (superseded), which the regular path decides.
+      // Known only from much less precise views: the regular path (k may replace its cells).
       if (effective_sigma_m(surface.information, surface.observed_area_m2) >
           config_.redundant_precision_ratio *
               std::max<double>(cell.depth_sigma_m, config_.residual_scale_m))
@@ -619,9 +619,7 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
       const Surface& surface = *met_cell.surface;
       if (max_age > 0 && surface.frames_observed < confirm && surface.last_observed_frame + max_age <= frame_id)
         unconfirmed.insert(old.surface);
-      // A settled re-observation meets its surface through one cell (and, with keep_others, the
-      // other surfaces' cells near it).
-      // A settled re-observation meets its surface through that one cell.
+      // A re-observation found first meets its surface through that one cell.
       const bool neighbour =
           prefused ? id == prefused_cell[k]
                    : near_box.overlaps(old_box) &&
