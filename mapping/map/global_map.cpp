@@ -503,24 +503,31 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
   /// replace S's cells, which the regular path decides. k then meets S in the CRF through that
   /// one cell, not through every stored cell near it, and its coverage is not collected: if the
   /// CRF gives it S's label, step 5 fuses it into S with the raster kept here; else step 5
-  /// collects its coverage from the candidates kept here (prefused_nearby).
-  std::vector<std::uint32_t> prefused_cell(fresh.size(), kNoSurface);
-  std::vector<std::uint32_t> prefused_surface(fresh.size(), kNoSurface);
-  std::vector<FootprintRaster> prefused_raster(fresh.size());
+  /// collects its coverage from the stored cells it met.
+  struct Reobserved {
+    std::uint32_t cell = 0;              ///< the stored cell through which k meets S
+    std::uint32_t surface = kNoSurface;  ///< S; kNoSurface: not found first
+    FootprintRaster raster;              ///< k on S's footprint grid
+  };
+  std::vector<Reobserved> reobserved(fresh.size());
   std::vector<std::uint32_t> tried;  // surfaces tested for one new cell (storage reused)
+  /// within[i]: whether new cell k lies within the gap of its candidate ids[i] (polygons_within_m),
+  /// −1 untested: the search's tests, reused by the neighbour search (storage reused).
+  std::vector<std::int8_t> within;
   const auto find_reobserved = [&](std::size_t k, const Aabb& near_box,
                                    std::span<const std::uint32_t> ids, const auto& met_of) {
     const Planecell& cell = *fresh[k];
     tried.clear();
-    for (std::uint32_t id : ids) {
+    for (std::size_t i = 0; i < ids.size(); ++i) {
+      const std::uint32_t id = ids[i];
       MetCell& met = met_of(id);
       const std::uint32_t surface_id = met.cell->surface;
       if (!met.box.overlaps(near_box) ||
           std::find(tried.begin(), tried.end(), surface_id) != tried.end())
         continue;
-      if (!polygons_within_m(cell.plane, cell.vertices_m, fresh_box[k], met.cell->plane,
-                             met.polygon(), met.box, gap))
-        continue;
+      within[i] = polygons_within_m(cell.plane, cell.vertices_m, fresh_box[k], met.cell->plane,
+                                    met.polygon(), met.box, gap);
+      if (!within[i]) continue;
       tried.push_back(surface_id);
       const Surface& surface = *met.surface;
       if (!surface.detail || surface.detail->footprint.empty())
@@ -542,14 +549,11 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
       if (!(detail.footprint.new_area_m2(raster) < config_.fuse_new_area_fraction * fresh_area[k]))
         continue;
       if (made) labels.emplace(surface_id, std::move(*made));  // S's label state, for the CRF
-      prefused_cell[k] = id;
-      prefused_surface[k] = surface_id;
-      prefused_raster[k] = std::move(raster);
+      reobserved[k] = {id, surface_id, std::move(raster)};
       return true;
     }
     return false;
   };
-  std::vector<std::vector<std::uint32_t>> prefused_nearby(fresh.size());  ///< their candidates
   /// Coverage between new cell k and the stored cell `met` (on `surface`; `neighbour`: within
   /// the gap): whether k covers it and it is much less precise (superseded), or else whether it
   /// may cover k (covering_tests, tested in step 5); and whether its surface may cover k
@@ -609,9 +613,11 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
       }
       return met->second;
     };
+    within.assign(nearby.size(), -1);
     const bool prefused =
         config_.prefuse_reobservations && find_reobserved(k, near_box, nearby, met_of);
-    for (std::uint32_t id : nearby) {
+    for (std::size_t i = 0; i < nearby.size(); ++i) {
+      const std::uint32_t id = nearby[i];
       MetCell& met_cell = met_of(id);
       const MapCell& old = *met_cell.cell;
       const Aabb& old_box = met_cell.box;
@@ -621,10 +627,12 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
         unconfirmed.insert(old.surface);
       // A re-observation found first meets its surface through that one cell.
       const bool neighbour =
-          prefused ? id == prefused_cell[k]
-                   : near_box.overlaps(old_box) &&
-                         polygons_within_m(cell.plane, cell.vertices_m, box, old.plane,
-                                           met_cell.polygon(), old_box, gap);
+          prefused
+              ? id == reobserved[k].cell
+              : near_box.overlaps(old_box) &&
+                    (within[i] >= 0 ? within[i] == 1
+                                    : polygons_within_m(cell.plane, cell.vertices_m, box, old.plane,
+                                                        met_cell.polygon(), old_box, gap));
       if (neighbour) {
         auto [it, inserted] = unit_of_map_cell.try_emplace(id, static_cast<std::uint32_t>(units.size()));
         if (inserted) {
@@ -641,7 +649,6 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
       // A re-observation found first is tested for coverage only if step 5 needs it after all.
       if (!prefused) collect_coverage(k, met_cell, surface, neighbour);
     }
-    if (prefused) prefused_nearby[k] = nearby;
   }
 
   // 3. Circular greedy CRF merging.
@@ -685,11 +692,11 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
     if (root_it != surfaces_.end()) {
       wake(root_it->second);  // a CRF label already: live
       const SurfaceDetail& detail = *root_it->second.detail;
-      if (prefused_surface[k] == root) {
+      if (reobserved[k].surface == root) {
         // Found first on this surface: its footprint has only grown since (step 4's merges, this
         // step's earlier cells), so the cell still adds less than the fraction; its superseded
         // cells are not collected.
-        raster = std::move(prefused_raster[k]);
+        raster = std::move(reobserved[k].raster);
         settled_by_footprint = true;
         ++report.prefused_cells;
       } else if (raster = raster_on(detail);
@@ -705,11 +712,16 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
     std::vector<const MapCell*> covering;          // stored cells covering it
     if (!settled_by_footprint) {
       // A re-observation found first that the CRF labelled otherwise: its coverage after all, by
-      // the stored cells near it as they are now (their surfaces after step 4's merges).
-      const Aabb reach_box = fresh_box[k].inflated(reach);
-      for (std::uint32_t id : prefused_nearby[k])
-        if (MetCell& met = met_cells.at(id); met.box.overlaps(reach_box))
-          collect_coverage(k, met, surfaces_.at(met.cell->surface), false);
+      // the stored cells it met (those of step 2's query: met, unlike this frame's new cells) as
+      // they are now (their surfaces after step 4's merges).
+      if (reobserved[k].surface != kNoSurface) {
+        const Aabb reach_box = fresh_box[k].inflated(reach);
+        index_.candidates(reach_box, nearby);
+        for (std::uint32_t id : nearby)
+          if (const auto met = met_cells.find(id);
+              met != met_cells.end() && met->second.box.overlaps(reach_box))
+            collect_coverage(k, met->second, surfaces_.at(met->second.cell->surface), false);
+      }
       for (const CoveringTest& test : covering_tests[k])
         if (const Tolerances t = tolerances_of(k, test.met->cell->depth_sigma_m);
             covers_test(cell, fresh_box[k], *test.met, t.angle_deg, t.tol, test.neighbour))
