@@ -4,7 +4,6 @@
 #include <bit>
 #include <cmath>
 #include <limits>
-#include <opencv2/imgproc.hpp>
 
 #include "core/error.hpp"
 
@@ -16,7 +15,6 @@ bool representable(double s, double t, double resolution_m) {
   return std::max(std::abs(s), std::abs(t)) / resolution_m <= static_cast<double>(1 << 30);
 }
 
-constexpr int kFootprintShift = 8;  // fillPoly fixed-point bits
 constexpr int N = FootprintTile::kSize;
 
 std::int64_t floor_div(std::int64_t a, std::int64_t b) { return a >= 0 ? a / b : -((-a + b - 1) / b); }
@@ -25,27 +23,22 @@ bool tile_less(const FootprintTile& tile, std::pair<std::int32_t, std::int32_t> 
   return std::pair(tile.s, tile.t) < key;
 }
 
-/// Calls f(ti, tj, bj, bits) for each tile row a raster's set pixels fall in: tile (ti, tj), its
-/// row bj, and the bits of that row the raster sets (bit i = grid column 32·ti + i). A row of the
-/// mask visits each tile it crosses once, from the first set pixel in it.
+/// Calls f(ti, tj, bj, bits) for each tile row a raster's spans fall in: tile (ti, tj), its row
+/// bj, and the bits of that row the span sets (bit i = grid column 32·ti + i); spans in raster
+/// order, each split at the tile seams it crosses.
 template <class F>
 void for_each_tile_row(const FootprintRaster& raster, F&& f) {
-  for (int r = 0; r < raster.mask.rows; ++r) {
-    const auto* m = raster.mask.ptr<std::uint8_t>(r);
-    const std::int64_t j = raster.j0 + r;
-    const auto tj = static_cast<std::int32_t>(floor_div(j, N));
-    const auto bj = static_cast<int>(j - static_cast<std::int64_t>(tj) * N);
-    for (std::int64_t c = 0; c < raster.mask.cols;) {
-      if (!m[c]) {
-        ++c;
-        continue;
-      }
-      const auto ti = static_cast<std::int32_t>(floor_div(raster.i0 + c, N));
+  for (const FootprintSpan& span : raster.spans) {
+    const auto tj = static_cast<std::int32_t>(floor_div(span.j, N));
+    const auto bj = static_cast<int>(span.j - static_cast<std::int64_t>(tj) * N);
+    for (std::int64_t i = span.i_first; i <= span.i_last;) {
+      const auto ti = static_cast<std::int32_t>(floor_div(i, N));
       const std::int64_t first_column = static_cast<std::int64_t>(ti) * N;
-      std::uint32_t bits = 0;
-      for (; c < raster.mask.cols && raster.i0 + c < first_column + N; ++c)
-        if (m[c]) bits |= 1u << static_cast<int>(raster.i0 + c - first_column);
-      f(ti, tj, bj, bits);
+      const std::int64_t last = std::min<std::int64_t>(span.i_last, first_column + N - 1);
+      const auto width = static_cast<int>(last - i + 1);  // 1 … 32 bits
+      const std::uint32_t ones = width == N ? ~0u : (1u << width) - 1u;
+      f(ti, tj, bj, ones << static_cast<int>(i - first_column));
+      i = last + 1;
     }
   }
 }
@@ -97,23 +90,53 @@ FootprintRaster Footprint::rasterise(std::span<const Eigen::Vector2d> ring) cons
   if (std::max({std::abs(lo_s), std::abs(hi_s), std::abs(lo_t), std::abs(hi_t)}) * inv > kMaxBits)
     return raster;
   // Grid bits i cover [i·res, (i+1)·res); their centres (i + 0.5)·res must lie in the polygon's
-  // bounding box: i ∈ [⌈lo/res − 0.5⌉, ⌊hi/res − 0.5⌋] (fillPoly itself also takes edge pixels).
+  // bounding box: i ∈ [⌈lo/res − 0.5⌉, ⌊hi/res − 0.5⌋].
   const auto i0 = static_cast<std::int64_t>(std::ceil(lo_s * inv - 0.5));
   const auto j0 = static_cast<std::int64_t>(std::ceil(lo_t * inv - 0.5));
   const auto i1 = static_cast<std::int64_t>(std::floor(hi_s * inv - 0.5));
   const auto j1 = static_cast<std::int64_t>(std::floor(hi_t * inv - 0.5));
   const std::int64_t cols = i1 - i0 + 1, rows = j1 - j0 + 1;
   if (cols <= 0 || rows <= 0 || cols * rows > 4'000'000) return raster;  // degenerate or absurd
-  raster.i0 = i0, raster.j0 = j0;
-  raster.mask = cv::Mat::zeros(static_cast<int>(rows), static_cast<int>(cols), CV_8U);
-  std::vector<cv::Point> points;
-  points.reserve(ring.size());
-  const double scale = static_cast<double>(1 << kFootprintShift);
-  for (const auto& p : ring)
-    points.emplace_back(static_cast<int>(std::lround((p.x() * inv - 0.5 - static_cast<double>(i0)) * scale)),
-                        static_cast<int>(std::lround((p.y() * inv - 0.5 - static_cast<double>(j0)) * scale)));
-  cv::fillPoly(raster.mask, std::vector<std::vector<cv::Point>>{points}, cv::Scalar(1), cv::LINE_8,
-               kFootprintShift);
+  // Scan conversion at the bit centres: in grid units u = s/res − ½, v = t/res − ½ bit (i, j)
+  // has its centre at (i, j). Each edge crosses the rows j with min(v_a, v_b) ≤ j < max(v_a, v_b)
+  // (half-open, so a vertex on a row counts once) at u = u_a + (j − v_a)(u_b − u_a)/(v_b − v_a);
+  // sorted by (j, u), the crossings of a row pair up into the runs [u_0, u_1] inside the polygon
+  // (even–odd), which hold the bits ⌈u_0⌉ … ⌊u_1⌋.
+  struct Crossing {
+    std::int64_t j;
+    double u;
+    bool operator<(const Crossing& o) const { return j != o.j ? j < o.j : u < o.u; }
+  };
+  std::vector<Crossing> crossings;
+  crossings.reserve(2 * static_cast<std::size_t>(rows));
+  for (std::size_t k = 0; k < ring.size(); ++k) {
+    const Eigen::Vector2d& a = ring[k];
+    const Eigen::Vector2d& b = ring[(k + 1) % ring.size()];
+    const double ua = a.x() * inv - 0.5, va = a.y() * inv - 0.5;
+    const double ub = b.x() * inv - 0.5, vb = b.y() * inv - 0.5;
+    if (va == vb) continue;  // along a row: its ends' edges count the crossings
+    const double du_dv = (ub - ua) / (vb - va);
+    const auto first = std::max(j0, static_cast<std::int64_t>(std::ceil(std::min(va, vb))));
+    const auto last = std::min(j1, static_cast<std::int64_t>(std::ceil(std::max(va, vb))) - 1);  // < max
+    for (std::int64_t j = first; j <= last; ++j)
+      crossings.push_back({j, ua + (static_cast<double>(j) - va) * du_dv});
+  }
+  std::sort(crossings.begin(), crossings.end());
+  // A closed ring crosses each row an even number of times under the half-open rule (the ends of
+  // two edges meeting at a vertex are the same numbers), so pairs never straddle two rows; runs
+  // of a row that share a bit (crossings on one centre) are joined.
+  auto& spans = raster.spans;
+  for (std::size_t k = 0; k + 1 < crossings.size(); k += 2) {
+    const auto j = static_cast<std::int32_t>(crossings[k].j);
+    const auto first = static_cast<std::int32_t>(std::max(i0, static_cast<std::int64_t>(std::ceil(crossings[k].u))));
+    const auto last =
+        static_cast<std::int32_t>(std::min(i1, static_cast<std::int64_t>(std::floor(crossings[k + 1].u))));
+    if (first > last) continue;
+    if (!spans.empty() && spans.back().j == j && first <= spans.back().i_last + 1)
+      spans.back().i_last = std::max(spans.back().i_last, last);
+    else
+      spans.push_back({j, first, last});
+  }
   return raster;
 }
 

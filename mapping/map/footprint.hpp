@@ -1,15 +1,13 @@
 #pragma once
 /// The footprint of a surface: which parts of its plane have been observed, as a sparse set of
 /// square tiles of occupancy bits in the surface's 2D basis. Fusing a cell rasterises its polygon
-/// (cv::fillPoly, cell centres) and counts the bits it newly sets, so the per-cell cost is bounded
+/// (the bits whose centres it holds, as row spans) and counts the bits it newly sets, so the per-cell cost is bounded
 /// by the cell's own size, not by the surface's history, and a surface's memory grows with the
 /// area it covers (res² per bit), not with the number of observations.
 #include <array>
 #include <cstdint>
 #include <span>
 #include <vector>
-
-#include <opencv2/core/mat.hpp>
 
 #include "mapping/map/geometry.hpp"
 
@@ -25,13 +23,22 @@ struct FootprintTile {
   bool operator==(const FootprintTile&) const = default;
 };
 
-/// A polygon rasterised on a footprint's grid (Footprint::rasterise): mask pixel (c, r) is grid
-/// bit (i0 + c, j0 + r), non-zero when that bit's centre lies inside the polygon. An empty mask
-/// covers nothing (a degenerate, non-finite or absurdly large polygon).
+/// Bits i_first … i_last (inclusive) of grid row j: bit (i, j) covers
+/// [i·res, (i + 1)·res) × [j·res, (j + 1)·res) of the basis.
+struct FootprintSpan {
+  std::int32_t j = 0;
+  std::int32_t i_first = 0;
+  std::int32_t i_last = 0;
+};
+
+/// A polygon rasterised on a footprint's grid (Footprint::rasterise): the grid bits whose centres
+/// ((i + ½)·res, (j + ½)·res) lie inside the polygon (even–odd rule), as disjoint spans sorted by
+/// (j, i_first): the covered area is unbiased (bits · res² → the polygon's area as res → 0), with
+/// no band of edge bits around each cell. No spans cover nothing (a degenerate, non-finite or
+/// absurdly large polygon).
 struct FootprintRaster {
-  std::int64_t i0 = 0;
-  std::int64_t j0 = 0;
-  cv::Mat mask;  ///< CV_8U
+  std::vector<FootprintSpan> spans;
+  bool empty() const { return spans.empty(); }
 };
 
 class Footprint {

@@ -4,6 +4,8 @@
 
 #include <cmath>
 #include <limits>
+#include <span>
+#include <vector>
 
 #include "core/error.hpp"
 #include "mapping/map/footprint.hpp"
@@ -48,7 +50,7 @@ TEST(Footprint, RasteriseCountsTheNewAreaBeforeAddingIt) {
   EXPECT_NEAR(f.new_area_m2(raster), 0.0, 1e-12);
   // A raster of nothing (degenerate ring) adds nothing.
   const std::vector<Eigen::Vector2d> line{{0.0, 0.0}, {1.0, 0.0}};
-  EXPECT_TRUE(f.rasterise(line).mask.empty());
+  EXPECT_TRUE(f.rasterise(line).empty());
   EXPECT_EQ(f.add(f.rasterise(line)), 0.0);
 }
 
@@ -68,9 +70,8 @@ TEST(Footprint, TriangleAreaWithinOneBitRowOfTheExactArea) {
   const std::vector<Eigen::Vector2d> tri{{0.0, 0.0}, {0.0, 4.0}, {4.0, 0.0}};
   const double area = f.add_polygon(tri);
   // Exact area 8 m²; the legs lie on bit edges (no error), and each bit the hypotenuse (5.66 m)
-  // crosses may fall in or out: |error| ≤ 5.66 m / res · res² ≈ 0.283 m² plus the bits it only
-  // touches at their corners (fillPoly takes edge pixels): allow 1.2 × that.
-  EXPECT_NEAR(area, 8.0, 1.2 * 5.66 * 0.05);
+  // crosses may fall in or out: |error| ≤ 5.66 m / res · res² ≈ 0.283 m².
+  EXPECT_NEAR(area, 8.0, 5.66 * 0.05);
 }
 
 TEST(Footprint, PointsAndRebuildFromTiles) {
@@ -108,9 +109,61 @@ TEST(Footprint, RingsAndPointsBeyondTheRepresentableRangeCoverNothing) {
   EXPECT_FALSE(f.add_point(1e300, 0));
   EXPECT_FALSE(f.contains(0, -1e300));
   EXPECT_TRUE(f.empty());
-  // Just inside the range (10⁸ bits = 10 000 km): covered as usual.
-  const std::vector<Eigen::Vector2d> inside = {{1e7, 0}, {1e7 + 1, 0}, {1e7 + 1, 1}, {1e7, 1}};
+  // Just inside the range (10⁸ bits = 10 000 km): covered as usual (10 × 10 bit centres).
+  const std::vector<Eigen::Vector2d> inside = {
+      {1e7 + 0.01, 0.01}, {1e7 + 0.99, 0.01}, {1e7 + 0.99, 0.99}, {1e7 + 0.01, 0.99}};
   EXPECT_NEAR(f.add_polygon(inside), 1.0, 1e-9);
+}
+
+/// Even–odd test of one point against a ring (the reference the raster must match bit for bit):
+/// the ring's edges crossing the horizontal ray to the point's right, each edge's rows half-open.
+bool inside(std::span<const Eigen::Vector2d> ring, const Eigen::Vector2d& p) {
+  bool in = false;
+  for (std::size_t k = 0, l = ring.size() - 1; k < ring.size(); l = k++) {
+    const Eigen::Vector2d &a = ring[k], &b = ring[l];
+    if ((a.y() > p.y()) != (b.y() > p.y()) &&
+        p.x() < a.x() + (p.y() - a.y()) * (b.x() - a.x()) / (b.y() - a.y()))
+      in = !in;
+  }
+  return in;
+}
+
+TEST(Footprint, RasterHoldsExactlyTheBitsWhoseCentresLieInside) {
+  // A notched (non-convex) outline, a thin sliver across a tile seam, and seeded random star
+  // polygons (self-touching shapes included): every bit centre of the surrounding grid is tested
+  // against the polygon directly, and the footprint must hold exactly those bits.
+  std::vector<std::vector<Eigen::Vector2d>> rings{
+      {{0.03, 0.02}, {2.17, 0.04}, {2.21, 1.93}, {1.41, 1.96}, {1.12, 0.61}, {0.83, 1.88}, {0.02, 1.97}},
+      {{3.01, -0.37}, {3.43, -0.32}, {3.36, 2.71}}};
+  std::uint32_t state = 12345u;
+  const auto uniform = [&state] {  // xorshift32 in [0, 1)
+    state ^= state << 13, state ^= state >> 17, state ^= state << 5;
+    return static_cast<double>(state) / 4294967296.0;
+  };
+  for (int n = 0; n < 20; ++n) {
+    std::vector<Eigen::Vector2d> star;
+    const Eigen::Vector2d centre(-2.0 + 4.0 * uniform(), -2.0 + 4.0 * uniform());
+    const int corners = 3 + n % 9;
+    for (int c = 0; c < corners; ++c) {
+      const double angle = 2.0 * M_PI * (c + 0.8 * uniform()) / corners, radius = 0.2 + 1.5 * uniform();
+      star.push_back(centre + radius * Eigen::Vector2d(std::cos(angle), std::sin(angle)));
+    }
+    rings.push_back(star);
+  }
+  constexpr double res = 0.1;
+  for (std::size_t r = 0; r < rings.size(); ++r) {
+    Footprint f(res);
+    const double area = f.add_polygon(rings[r]);
+    std::size_t expected = 0;
+    for (int j = -50; j < 50; ++j)
+      for (int i = -50; i < 50; ++i) {
+        const Eigen::Vector2d centre((i + 0.5) * res, (j + 0.5) * res);
+        const bool in = inside(rings[r], centre);
+        expected += in ? 1 : 0;
+        EXPECT_EQ(f.contains(centre.x(), centre.y()), in) << "ring " << r << " bit (" << i << ", " << j << ")";
+      }
+    EXPECT_NEAR(area, static_cast<double>(expected) * res * res, 1e-9) << "ring " << r;
+  }
 }
 
 }  // namespace
