@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include <boost/container/small_vector.hpp>
+
 #include "core/error.hpp"
 #include "mapping/map/container_bytes.hpp"
 
@@ -46,7 +48,15 @@ void SpatialIndex::insert(std::uint32_t id, const Aabb& box) {
     throw InputError("spatial index: cell " + std::to_string(id) + " lies outside ±" +
                      std::to_string(limit) + " m, the indexable range");
   ++size_;
-  for_each_bucket(box, [&](std::uint64_t key) { buckets_[key].push_back(id); });
+  // Each bucket keeps its ids sorted (new cells come with growing ids: an append), so that a
+  // query merges its buckets instead of sorting their concatenation.
+  for_each_bucket(box, [&](std::uint64_t key) {
+    auto& ids = buckets_[key];
+    if (ids.empty() || ids.back() < id)
+      ids.push_back(id);
+    else
+      ids.insert(std::upper_bound(ids.begin(), ids.end(), id), id);
+  });
 }
 
 void SpatialIndex::remove(std::uint32_t id, const Aabb& box) {
@@ -72,12 +82,37 @@ std::vector<std::uint32_t> SpatialIndex::candidates(const Aabb& box) const {
 
 void SpatialIndex::candidates(const Aabb& box, std::vector<std::uint32_t>& out) const {
   out.clear();
+  // The touched buckets' sorted ids, one run each (run r = out[starts[r], starts[r + 1])).
+  boost::container::small_vector<std::size_t, 33> starts;
   for_each_bucket(box, [&](std::uint64_t key) {
     auto it = buckets_.find(key);
     if (it == buckets_.end()) return;
+    starts.push_back(out.size());
     out.insert(out.end(), it->second.begin(), it->second.end());
   });
-  std::sort(out.begin(), out.end());
+  const std::size_t n = out.size();
+  starts.push_back(n);
+  // Runs merged pairwise, back and forth between out[0, n) and out[n, 2n): ⌈log₂ runs⌉ passes of
+  // n, against n log n for a sort; a cell in several buckets then sits in adjacent copies.
+  if (starts.size() > 2) {
+    out.resize(2 * n);
+    std::uint32_t* from = out.data();
+    std::uint32_t* to = out.data() + n;
+    while (starts.size() > 2) {
+      std::size_t kept = 0;
+      for (std::size_t r = 0; r + 1 < starts.size(); r += 2, ++kept) {
+        const std::size_t lo = starts[r], mid = starts[r + 1];
+        const std::size_t hi = r + 2 < starts.size() ? starts[r + 2] : mid;
+        std::merge(from + lo, from + mid, from + mid, from + hi, to + lo);
+        starts[kept] = lo;
+      }
+      starts[kept] = n;
+      starts.resize(kept + 1);
+      std::swap(from, to);
+    }
+    if (from != out.data()) std::copy(from, from + n, out.data());
+    out.resize(n);
+  }
   out.erase(std::unique(out.begin(), out.end()), out.end());
 }
 

@@ -52,6 +52,7 @@ class SpatialIndexTest : public ::testing::Test {
       ASSERT_EQ(found, brute_force(boxes_, query)) << "query " << q;
       const auto candidates = index_.candidates(query);
       EXPECT_TRUE(std::is_sorted(candidates.begin(), candidates.end()));
+      EXPECT_EQ(std::adjacent_find(candidates.begin(), candidates.end()), candidates.end()) << "query " << q;
       EXPECT_TRUE(std::includes(candidates.begin(), candidates.end(), found.begin(), found.end()));
     }
   }
@@ -83,6 +84,23 @@ TEST_F(SpatialIndexTest, AnswersExactlyAfterMostBoxesLeave) {
   for (const auto& [id, b] : boxes_) index_.remove(id, b);
   EXPECT_EQ(index_.size(), 0u);
   EXPECT_TRUE(index_.candidates(box_at({-200, -20, -10}, {400, 40, 20})).empty());
+}
+
+/// Ids registered in any order (a map restored from its store, cells re-registered after a move)
+/// are answered as when registered in id order: the same sorted, unique candidates.
+TEST_F(SpatialIndexTest, AnswersLikeBruteForceWhateverTheInsertionOrder) {
+  std::vector<std::uint32_t> ids;
+  for (const auto& [id, b] : boxes_) ids.push_back(id);
+  std::shuffle(ids.begin(), ids.end(), std::mt19937(3));
+  SpatialIndex shuffled(2.0);
+  for (std::uint32_t id : ids) shuffled.insert(id, boxes_.at(id));
+  std::mt19937 rng(8);
+  std::uniform_real_distribution<double> x(-110.0, 110.0), y(-10.0, 10.0), z(-3.0, 7.0), size(0.0, 12.0);
+  for (int q = 0; q < 300; ++q) {
+    const Aabb query = box_at({x(rng), y(rng), z(rng)}, {size(rng), size(rng), size(rng)});
+    ASSERT_EQ(shuffled.candidates(query), index_.candidates(query)) << "query " << q;
+    ASSERT_EQ(shuffled.query(query, [&](std::uint32_t id) { return boxes_.at(id); }), brute_force(boxes_, query));
+  }
 }
 
 TEST(SpatialIndex, RefusesBadBucketsAndBoxesBeyondItsRange) {
