@@ -5,6 +5,8 @@
 #include <cmath>
 #include <limits>
 
+#include <boost/container/small_vector.hpp>
+
 #include "core/error.hpp"
 
 namespace planecell::map {
@@ -107,7 +109,7 @@ FootprintRaster Footprint::rasterise(std::span<const Eigen::Vector2d> ring) cons
     double u;
     bool operator<(const Crossing& o) const { return j != o.j ? j < o.j : u < o.u; }
   };
-  std::vector<Crossing> crossings;
+  boost::container::small_vector<Crossing, 64> crossings;  // a cell's crossings fit: no heap
   crossings.reserve(2 * static_cast<std::size_t>(rows));
   for (std::size_t k = 0; k < ring.size(); ++k) {
     const Eigen::Vector2d& a = ring[k];
@@ -126,6 +128,7 @@ FootprintRaster Footprint::rasterise(std::span<const Eigen::Vector2d> ring) cons
   // two edges meeting at a vertex are the same numbers), so pairs never straddle two rows; runs
   // of a row that share a bit (crossings on one centre) are joined.
   auto& spans = raster.spans;
+  spans.reserve(static_cast<std::size_t>(rows));  // one run per row for a convex cell
   for (std::size_t k = 0; k + 1 < crossings.size(); k += 2) {
     const auto j = static_cast<std::int32_t>(crossings[k].j);
     const auto first = static_cast<std::int32_t>(std::max(i0, static_cast<std::int64_t>(std::ceil(crossings[k].u))));
@@ -142,8 +145,12 @@ FootprintRaster Footprint::rasterise(std::span<const Eigen::Vector2d> ring) cons
 
 double Footprint::new_area_m2(const FootprintRaster& raster) const {
   std::size_t added = 0;
+  // Consecutive spans mostly fall in the same tile: it is looked up again only when it changes.
+  std::pair<std::int32_t, std::int32_t> key{0, 0};
+  const FootprintTile* tile = nullptr;
+  bool found = false;
   for_each_tile_row(raster, [&](std::int32_t ti, std::int32_t tj, int bj, std::uint32_t bits) {
-    const FootprintTile* tile = find_tile(ti, tj);
+    if (!found || key != std::pair(ti, tj)) key = {ti, tj}, tile = find_tile(ti, tj), found = true;
     added += static_cast<std::size_t>(std::popcount(bits & ~(tile ? tile->rows[bj] : 0u)));
   });
   return static_cast<double>(added) * resolution_m_ * resolution_m_;
@@ -151,8 +158,12 @@ double Footprint::new_area_m2(const FootprintRaster& raster) const {
 
 double Footprint::add(const FootprintRaster& raster) {
   std::size_t added = 0;
+  // As in new_area_m2; a tile inserted moves the others, but only the current one is held.
+  std::pair<std::int32_t, std::int32_t> key{0, 0};
+  FootprintTile* tile = nullptr;
   for_each_tile_row(raster, [&](std::int32_t ti, std::int32_t tj, int bj, std::uint32_t bits) {
-    std::uint32_t& row = tile_at(ti, tj).rows[bj];
+    if (!tile || key != std::pair(ti, tj)) key = {ti, tj}, tile = &tile_at(ti, tj);
+    std::uint32_t& row = tile->rows[bj];
     added += static_cast<std::size_t>(std::popcount(bits & ~row));
     row |= bits;
   });
