@@ -99,11 +99,12 @@ FootprintRaster Footprint::rasterise(std::span<const Eigen::Vector2d> ring) cons
   const auto j1 = static_cast<std::int64_t>(std::floor(hi_t * inv - 0.5));
   const std::int64_t cols = i1 - i0 + 1, rows = j1 - j0 + 1;
   if (cols <= 0 || rows <= 0 || cols * rows > 4'000'000) return raster;  // degenerate or absurd
-  // Scan conversion at the bit centres: in grid units u = s/res − ½, v = t/res − ½ bit (i, j)
-  // has its centre at (i, j). Each edge crosses the rows j with min(v_a, v_b) ≤ j < max(v_a, v_b)
-  // (half-open, so a vertex on a row counts once) at u = u_a + (j − v_a)(u_b − u_a)/(v_b − v_a);
-  // sorted by (j, u), the crossings of a row pair up into the runs [u_0, u_1] inside the polygon
-  // (even–odd), which hold the bits ⌈u_0⌉ … ⌊u_1⌋.
+  // In grid units u = s/res − ½, v = t/res − ½ bit (i, j) has its centre at (i, j).
+  // Inside: each edge crosses the rows j with min(v_a, v_b) ≤ j < max(v_a, v_b) (half-open, so a
+  // vertex on a row counts once) at u_j = u_a + (j − v_a)(u_b − u_a)/(v_b − v_a); sorted by
+  // (j, u), the crossings of a row pair up into the runs [u_0, u_1] inside the polygon (even–odd),
+  // which hold the bits ⌈u_0⌉ … ⌊u_1⌋. Outline: that crossing is bit (⌊u_j + ½⌋, j), and the
+  // crossing of column i at v_i likewise bit (i, ⌊v_i + ½⌋).
   struct Crossing {
     std::int64_t j;
     double u;
@@ -111,34 +112,76 @@ FootprintRaster Footprint::rasterise(std::span<const Eigen::Vector2d> ring) cons
   };
   boost::container::small_vector<Crossing, 64> crossings;  // a cell's crossings fit: no heap
   crossings.reserve(2 * static_cast<std::size_t>(rows));
+  // The outline's and inside's bits as pieces of rows j0 − 1 … j1 + 1 (the outline reaches half a
+  // bit beyond the centres' box), gathered unsorted, then grouped by row.
+  const std::int64_t row_lo = j0 - 1, row_hi = j1 + 1;
+  boost::container::small_vector<FootprintSpan, 128> pieces;
+  const auto nearest = [](double x) { return static_cast<std::int64_t>(std::floor(x + 0.5)); };
+  const auto add_piece = [&](std::int64_t j, std::int64_t first, std::int64_t last) {
+    pieces.push_back({static_cast<std::int32_t>(std::clamp(j, row_lo, row_hi)), static_cast<std::int32_t>(first),
+                      static_cast<std::int32_t>(last)});
+  };
   for (std::size_t k = 0; k < ring.size(); ++k) {
     const Eigen::Vector2d& a = ring[k];
     const Eigen::Vector2d& b = ring[(k + 1) % ring.size()];
     const double ua = a.x() * inv - 0.5, va = a.y() * inv - 0.5;
     const double ub = b.x() * inv - 0.5, vb = b.y() * inv - 0.5;
-    if (va == vb) continue;  // along a row: its ends' edges count the crossings
-    const double du_dv = (ub - ua) / (vb - va);
-    const auto first = std::max(j0, static_cast<std::int64_t>(std::ceil(std::min(va, vb))));
-    const auto last = std::min(j1, static_cast<std::int64_t>(std::ceil(std::max(va, vb))) - 1);  // < max
-    for (std::int64_t j = first; j <= last; ++j)
-      crossings.push_back({j, ua + (static_cast<double>(j) - va) * du_dv});
+    if (va != vb) {  // an edge along a row crosses no row: its ends' edges count the crossings
+      const double du_dv = (ub - ua) / (vb - va);
+      const auto first = static_cast<std::int64_t>(std::ceil(std::min(va, vb)));
+      const auto last = static_cast<std::int64_t>(std::ceil(std::max(va, vb))) - 1;  // < max
+      for (std::int64_t j = first; j <= last; ++j) {
+        const double u = ua + (static_cast<double>(j) - va) * du_dv;
+        if (j >= j0 && j <= j1) crossings.push_back({j, u});
+        add_piece(j, nearest(u), nearest(u));
+      }
+    }
+    if (ua != ub) {  // consecutive columns rounding to one row: one piece
+      const double dv_du = (vb - va) / (ub - ua);
+      const auto first = static_cast<std::int64_t>(std::ceil(std::min(ua, ub)));
+      const auto last = static_cast<std::int64_t>(std::ceil(std::max(ua, ub))) - 1;
+      std::int64_t run_j = 0, run_first = 0;
+      for (std::int64_t i = first; i <= last; ++i) {
+        const std::int64_t j = nearest(va + (static_cast<double>(i) - ua) * dv_du);
+        if (i == first || j != run_j) {
+          if (i != first) add_piece(run_j, run_first, i - 1);
+          run_j = j, run_first = i;
+        }
+      }
+      if (first <= last) add_piece(run_j, run_first, last);
+    }
   }
-  std::sort(crossings.begin(), crossings.end());
   // A closed ring crosses each row an even number of times under the half-open rule (the ends of
-  // two edges meeting at a vertex are the same numbers), so pairs never straddle two rows; runs
-  // of a row that share a bit (crossings on one centre) are joined.
-  auto& spans = raster.spans;
-  spans.reserve(static_cast<std::size_t>(rows));  // one run per row for a convex cell
+  // two edges meeting at a vertex are the same numbers), so pairs never straddle two rows.
+  std::sort(crossings.begin(), crossings.end());
   for (std::size_t k = 0; k + 1 < crossings.size(); k += 2) {
-    const auto j = static_cast<std::int32_t>(crossings[k].j);
-    const auto first = static_cast<std::int32_t>(std::max(i0, static_cast<std::int64_t>(std::ceil(crossings[k].u))));
-    const auto last =
-        static_cast<std::int32_t>(std::min(i1, static_cast<std::int64_t>(std::floor(crossings[k + 1].u))));
-    if (first > last) continue;
-    if (!spans.empty() && spans.back().j == j && first <= spans.back().i_last + 1)
-      spans.back().i_last = std::max(spans.back().i_last, last);
-    else
-      spans.push_back({j, first, last});
+    const auto first = static_cast<std::int64_t>(std::ceil(crossings[k].u));
+    const auto last = static_cast<std::int64_t>(std::floor(crossings[k + 1].u));
+    if (first <= last) add_piece(crossings[k].j, first, last);
+  }
+  // Grouped by row (counting sort), each row's few pieces sorted by i_first and joined where they
+  // overlap or touch.
+  const auto row_count = static_cast<std::size_t>(row_hi - row_lo + 1);
+  boost::container::small_vector<std::uint32_t, 72> start(row_count + 1, 0u);
+  for (const FootprintSpan& piece : pieces) ++start[static_cast<std::size_t>(piece.j - row_lo) + 1];
+  for (std::size_t r = 0; r < row_count; ++r) start[r + 1] += start[r];
+  boost::container::small_vector<FootprintSpan, 128> by_row(pieces.size());
+  {
+    boost::container::small_vector<std::uint32_t, 72> next(start.begin(), start.end() - 1);
+    for (const FootprintSpan& piece : pieces) by_row[next[static_cast<std::size_t>(piece.j - row_lo)]++] = piece;
+  }
+  auto& spans = raster.spans;
+  spans.reserve(static_cast<std::size_t>(rows) + 2);  // one span a row for a convex cell
+  for (std::size_t r = 0; r < row_count; ++r) {
+    const auto row_begin = by_row.begin() + start[r], row_end = by_row.begin() + start[r + 1];
+    std::sort(row_begin, row_end, [](const FootprintSpan& x, const FootprintSpan& y) { return x.i_first < y.i_first; });
+    const std::size_t row_first_span = spans.size();
+    for (auto piece = row_begin; piece != row_end; ++piece) {
+      if (spans.size() > row_first_span && piece->i_first <= spans.back().i_last + 1)
+        spans.back().i_last = std::max(spans.back().i_last, piece->i_last);
+      else
+        spans.push_back(*piece);
+    }
   }
   return raster;
 }

@@ -1,7 +1,7 @@
 #pragma once
 /// The footprint of a surface: which parts of its plane have been observed, as a sparse set of
 /// square tiles of occupancy bits in the surface's 2D basis. Fusing a cell rasterises its polygon
-/// (the bits whose centres it holds, as row spans) and counts the bits it newly sets, so the per-cell cost is bounded
+/// (the bits its inside and outline hold, as row spans) and counts the bits it newly sets, so the per-cell cost is bounded
 /// by the cell's own size, not by the surface's history, and a surface's memory grows with the
 /// area it covers (res² per bit), not with the number of observations.
 #include <array>
@@ -32,10 +32,12 @@ struct FootprintSpan {
 };
 
 /// A polygon rasterised on a footprint's grid (Footprint::rasterise): the grid bits whose centres
-/// ((i + ½)·res, (j + ½)·res) lie inside the polygon (even–odd rule), as disjoint spans sorted by
-/// (j, i_first): the covered area is unbiased (bits · res² → the polygon's area as res → 0), with
-/// no band of edge bits around each cell. No spans cover nothing (a degenerate, non-finite or
-/// absurdly large polygon).
+/// c = ((i + ½)·res, (j + ½)·res) lie inside the polygon (even–odd rule) or on its outline,
+/// i.e. an edge crosses one of the two segments of one bit's length through c, along the row or
+/// along the column (the bits a line drawing of the outline sets: cells that touch leave no crack
+/// of unset bits between their rasters, where a later view across their seam would count new
+/// area; a crossing on the seam of two bits belongs to the one of larger index). Disjoint spans
+/// sorted by (j, i_first); none cover nothing (a degenerate, non-finite or absurdly large polygon).
 struct FootprintRaster {
   std::vector<FootprintSpan> spans;
   bool empty() const { return spans.empty(); }
@@ -48,8 +50,8 @@ class Footprint {
   /// Throws ConfigError unless resolution_m is in (0, 10].
   explicit Footprint(double resolution_m);
 
-  /// Marks the bits whose centres lie inside the polygon `ring` (basis coordinates (s, t) in m,
-  /// either orientation, closing vertex optional). Returns the area newly covered:
+  /// Marks the bits of the polygon `ring` (FootprintRaster: inside or on its outline; basis
+  /// coordinates (s, t) in m, either orientation, closing vertex optional). Returns the area newly covered:
   /// (bits set now that were clear before) · res² (m²).
   double add_polygon(std::span<const Eigen::Vector2d> ring);
   /// The same in two steps, so that the area a polygon would add is known before the footprint
