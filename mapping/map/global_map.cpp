@@ -865,7 +865,7 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
 template <class Reject, class Visit>
 std::uint32_t GlobalMap::visit_reached_surfaces(std::uint32_t id, std::span<const Planecell* const> fresh,
                                                 std::span<const std::size_t> ks, std::span<const Aabb> boxes,
-                                                double gap_m, std::set<std::uint32_t>& checked, Reject&& reject,
+                                                double gap_m, CheckedSurfaces& checked, Reject&& reject,
                                                 Visit&& visit, const std::vector<std::uint32_t>* given) {
   std::vector<Aabb> reach;  // each reaching cell's bounds inflated by the gap
   Aabb all;
@@ -875,6 +875,7 @@ std::uint32_t GlobalMap::visit_reached_surfaces(std::uint32_t id, std::span<cons
   }
   std::vector<std::uint32_t> nearby;
   if (!given) index_.candidates(all, nearby);
+  const Surface* self = nullptr;  // surfaces_.at(id), looked up again after each visit
   for (std::uint32_t cell_id : given ? *given : nearby) {
     const auto cell_it = cells_.find(cell_id);
     if (cell_it == cells_.end()) continue;
@@ -883,7 +884,8 @@ std::uint32_t GlobalMap::visit_reached_surfaces(std::uint32_t id, std::span<cons
     if (other_id == id || checked.contains(other_id)) continue;
     const auto other_it = surfaces_.find(other_id);
     if (other_it == surfaces_.end()) continue;
-    if (reject(surfaces_.at(id), other_it->second)) {
+    if (!self) self = &surfaces_.at(id);
+    if (reject(*self, other_it->second)) {
       checked.insert(other_id);
       continue;
     }
@@ -899,6 +901,7 @@ std::uint32_t GlobalMap::visit_reached_surfaces(std::uint32_t id, std::span<cons
     if (w == ks.size()) continue;  // this stored cell is out of reach; another of its surface may not be
     checked.insert(other_id);
     id = visit(id, old, old_vertices, *fresh[ks[w]]);
+    self = nullptr;  // a merge may have moved or removed it
   }
   return id;
 }
@@ -941,7 +944,7 @@ void GlobalMap::bridge_surfaces(std::span<const Planecell* const> fresh, std::sp
     if (const auto it = surfaces_.find(id); it == surfaces_.end() || it->second.observations < mature) continue;
     std::vector<Aabb> boxes;  // each reaching cell's bounds
     for (std::size_t k : ks) boxes.push_back(fresh_box[k]);
-    std::set<std::uint32_t> checked;  // other surfaces tested against this one
+    CheckedSurfaces checked;  // other surfaces tested against this one
     if (config_.bridge_gap_m > 0.0)
       id = visit_reached_surfaces(
           id, fresh, ks, boxes, config_.bridge_gap_m, checked, reject,
@@ -976,7 +979,7 @@ std::uint32_t GlobalMap::bridge_long(std::uint32_t id, std::span<const Planecell
                                      std::span<const Aabb> fresh_box,
                                      std::span<const std::size_t> ks, std::span<const Aabb> boxes,
                                      const Eigen::Vector3d& camera_centre,
-                                     std::set<std::uint32_t>& checked,
+                                     CheckedSurfaces& checked,
                                      std::optional<FrameReach>& frame_reach,
                                      std::set<std::uint32_t>& touched, MergeReport& report) {
   const auto mature = static_cast<std::uint32_t>(std::max(config_.mature_cells, 1));
@@ -1069,7 +1072,7 @@ bool GlobalMap::join_neighbour(Surface& surface, std::set<std::uint32_t>& touche
   // surface's) that this one lies on.
   const Surface* best = nullptr;
   std::vector<std::uint32_t> nearby;
-  std::set<std::uint32_t> checked;
+  CheckedSurfaces checked;
   const LabelState self = state_of_surface(surface);
   // Within its own depth noise, colours alike: the tolerance σ̄_Z·k (fragment_join_sigma_factor).
   double sigma_m = 0.0;

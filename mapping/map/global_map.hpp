@@ -3,6 +3,7 @@
 /// (paper §5.2), with a spatial index, footprint fusion (map size grows with area, not frames),
 /// planner queries and memory accounting.
 #include <array>
+#include <boost/container/flat_set.hpp>
 #include <cstdint>
 #include <deque>
 #include <map>
@@ -179,6 +180,10 @@ struct HeightMap {
   cv::Mat height_m;  ///< CV_32F rows × cols, max up·X of the cells over each grid square; NaN = none
 };
 
+/// Surfaces already tested against one surface in a walk (bridges, fragment joins): a sorted
+/// vector, as a walk tests tens of them, each looked up once per stored cell met.
+using CheckedSurfaces = boost::container::flat_set<std::uint32_t>;
+
 class GlobalMap {
  public:
   /// Throws ConfigError on an invalid configuration (non-positive scales, zero up vector).
@@ -314,7 +319,7 @@ class GlobalMap {
   template <class Reject, class Visit>
   std::uint32_t visit_reached_surfaces(std::uint32_t id, std::span<const Planecell* const> fresh,
                                        std::span<const std::size_t> ks, std::span<const Aabb> boxes,
-                                       double gap_m, std::set<std::uint32_t>& checked, Reject&& reject,
+                                       double gap_m, CheckedSurfaces& checked, Reject&& reject,
                                        Visit&& visit, const std::vector<std::uint32_t>* given = nullptr);
   /// Is a stored cell of a surface other than `a` and `b` within 0.2 m of `point`?
   bool third_surface_near(const Eigen::Vector3d& point, std::uint32_t a, std::uint32_t b) const;
@@ -334,7 +339,7 @@ class GlobalMap {
   std::uint32_t bridge_long(std::uint32_t id, std::span<const Planecell* const> fresh,
                             std::span<const Aabb> fresh_box, std::span<const std::size_t> ks,
                             std::span<const Aabb> boxes,
-                            const Eigen::Vector3d& camera_centre, std::set<std::uint32_t>& checked,
+                            const Eigen::Vector3d& camera_centre, CheckedSurfaces& checked,
                             std::optional<FrameReach>& frame_reach, std::set<std::uint32_t>& touched,
                             MergeReport& report);
 
