@@ -4,6 +4,7 @@
 #include <bit>
 #include <cmath>
 #include <limits>
+#include <optional>
 
 #include <boost/container/small_vector.hpp>
 
@@ -104,7 +105,7 @@ FootprintRaster Footprint::rasterise(std::span<const Eigen::Vector2d> ring) cons
   // vertex on a row counts once) at u_j = u_a + (j − v_a)(u_b − u_a)/(v_b − v_a); sorted by
   // (j, u), the crossings of a row pair up into the runs [u_0, u_1] inside the polygon (even–odd),
   // which hold the bits ⌈u_0⌉ … ⌊u_1⌋. Outline: that crossing is bit (⌊u_j + ½⌋, j), and the
-  // crossing of column i at v_i likewise bit (i, ⌊v_i + ½⌋).
+  // crossing of column i at v_i likewise bit (i, ⌊v_i + ½⌋), unless it lies on a seam.
   struct Crossing {
     std::int64_t j;
     double u;
@@ -116,7 +117,15 @@ FootprintRaster Footprint::rasterise(std::span<const Eigen::Vector2d> ring) cons
   // bit beyond the centres' box), gathered unsorted, then grouped by row.
   const std::int64_t row_lo = j0 - 1, row_hi = j1 + 1;
   boost::container::small_vector<FootprintSpan, 128> pieces;
-  const auto nearest = [](double x) { return static_cast<std::int64_t>(std::floor(x + 0.5)); };
+  // The bit whose centre segment (k − ½ + ε, k + ½ − ε) holds x; none for x within ε of a seam:
+  // ε = 10⁻³ bit (0.1 mm at 10 cm) exceeds the float rounding of the vertices up to ~2 km from
+  // the origin, so an edge laid along a seam sets no bit beyond it.
+  constexpr double kSeam = 1e-3;
+  const auto nearest = [](double x) -> std::optional<std::int64_t> {
+    const double k = std::floor(x + 0.5);
+    if (x - (k - 0.5) < kSeam || (k + 0.5) - x < kSeam) return std::nullopt;
+    return static_cast<std::int64_t>(k);
+  };
   const auto add_piece = [&](std::int64_t j, std::int64_t first, std::int64_t last) {
     pieces.push_back({static_cast<std::int32_t>(std::clamp(j, row_lo, row_hi)), static_cast<std::int32_t>(first),
                       static_cast<std::int32_t>(last)});
@@ -133,22 +142,22 @@ FootprintRaster Footprint::rasterise(std::span<const Eigen::Vector2d> ring) cons
       for (std::int64_t j = first; j <= last; ++j) {
         const double u = ua + (static_cast<double>(j) - va) * du_dv;
         if (j >= j0 && j <= j1) crossings.push_back({j, u});
-        add_piece(j, nearest(u), nearest(u));
+        if (const auto i = nearest(u)) add_piece(j, *i, *i);
       }
     }
     if (ua != ub) {  // consecutive columns rounding to one row: one piece
       const double dv_du = (vb - va) / (ub - ua);
       const auto first = static_cast<std::int64_t>(std::ceil(std::min(ua, ub)));
       const auto last = static_cast<std::int64_t>(std::ceil(std::max(ua, ub))) - 1;
-      std::int64_t run_j = 0, run_first = 0;
+      std::optional<std::int64_t> run_j;  // the row of the run of columns ending at i − 1
+      std::int64_t run_first = 0;
       for (std::int64_t i = first; i <= last; ++i) {
-        const std::int64_t j = nearest(va + (static_cast<double>(i) - ua) * dv_du);
-        if (i == first || j != run_j) {
-          if (i != first) add_piece(run_j, run_first, i - 1);
-          run_j = j, run_first = i;
-        }
+        const auto j = nearest(va + (static_cast<double>(i) - ua) * dv_du);
+        if (j == run_j) continue;
+        if (run_j) add_piece(*run_j, run_first, i - 1);
+        run_j = j, run_first = i;
       }
-      if (first <= last) add_piece(run_j, run_first, last);
+      if (run_j) add_piece(*run_j, run_first, last);
     }
   }
   // A closed ring crosses each row an even number of times under the half-open rule (the ends of

@@ -36,8 +36,9 @@ struct FootprintSpan {
 /// i.e. an edge crosses one of the two segments of one bit's length through c, along the row or
 /// along the column (the bits a line drawing of the outline sets: cells that touch leave no crack
 /// of unset bits between their rasters, where a later view across their seam would count new
-/// area; a crossing on the seam of two bits belongs to the one of larger index). Disjoint spans
-/// sorted by (j, i_first); none cover nothing (a degenerate, non-finite or absurdly large polygon).
+/// area). A crossing within 10⁻³ bit of the seam of two bits (float rounding) sets neither, so a
+/// polygon whose edges run along bit seams holds just the bits inside it. Disjoint spans sorted by
+/// (j, i_first); none cover nothing (a degenerate, non-finite or absurdly large polygon).
 struct FootprintRaster {
   std::vector<FootprintSpan> spans;
   bool empty() const { return spans.empty(); }

@@ -24,6 +24,11 @@ TEST(Footprint, SquareCoversTheBitsWhoseCentresLieInside) {
   EXPECT_TRUE(f.contains(0.55, 0.55));
   EXPECT_FALSE(f.contains(1.05, 0.55));
   EXPECT_EQ(f.covered_centres().size(), 100u);
+  // Edges on the bit seams (s, t = 0 and 1 m): the outline runs along them and sets no bit beyond.
+  Footprint g(0.1);
+  EXPECT_NEAR(g.add_polygon(rectangle(0.0, 0.0, 1.0, 1.0)), 1.0, 1e-9);
+  EXPECT_FALSE(g.contains(1.05, 0.55));
+  EXPECT_FALSE(g.contains(0.55, -0.05));
 }
 
 TEST(Footprint, ReObservationAddsOnlyTheNewPart) {
@@ -130,8 +135,9 @@ TEST(Footprint, RingsAndPointsBeyondTheRepresentableRangeCoverNothing) {
 
 /// Whether grid bit (i, j) of a ring given in grid units (bit centres at the integers) belongs to
 /// its raster, tested directly: its centre inside (even–odd crossings of the row to its right),
-/// or an edge crossing its row within [i − ½, i + ½) or its column within [j − ½, j + ½) (rows
-/// and columns crossed half-open at the edge's ends, as the raster's rule states).
+/// or an edge crossing its row within (i − ½ + ε, i + ½ − ε) or its column within
+/// (j − ½ + ε, j + ½ − ε), ε = 10⁻³ (rows and columns crossed half-open at the edge's ends, as the
+/// raster's rule states).
 bool in_raster(std::span<const Eigen::Vector2d> ring, int i, int j) {
   bool inside = false;
   const auto crosses = [](double end_a, double end_b, double at) {
@@ -143,11 +149,11 @@ bool in_raster(std::span<const Eigen::Vector2d> ring, int i, int j) {
     if (crosses(a.y(), b.y(), j)) {
       const double u = a.x() + (j - a.y()) * (b.x() - a.x()) / (b.y() - a.y());
       if (u > i) inside = !inside;
-      if (i - 0.5 <= u && u < i + 0.5) return true;
+      if (i - 0.5 + 1e-3 < u && u < i + 0.5 - 1e-3) return true;
     }
     if (crosses(a.x(), b.x(), i)) {
       const double v = a.y() + (i - a.x()) * (b.y() - a.y()) / (b.x() - a.x());
-      if (j - 0.5 <= v && v < j + 0.5) return true;
+      if (j - 0.5 + 1e-3 < v && v < j + 0.5 - 1e-3) return true;
     }
   }
   return inside;
