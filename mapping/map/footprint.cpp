@@ -113,10 +113,12 @@ FootprintRaster Footprint::rasterise(std::span<const Eigen::Vector2d> ring) cons
   };
   boost::container::small_vector<Crossing, 64> crossings;  // a cell's crossings fit: no heap
   crossings.reserve(2 * static_cast<std::size_t>(rows));
-  // The outline's and inside's bits as pieces of rows j0 − 1 … j1 + 1 (the outline reaches half a
-  // bit beyond the centres' box), gathered unsorted, then grouped by row.
-  const std::int64_t row_lo = j0 - 1, row_hi = j1 + 1;
-  boost::container::small_vector<FootprintSpan, 128> pieces;
+  // The outline's and inside's bits gathered in a bitmap of rows j0 − 1 … j1 + 1 and columns
+  // i0 − 1 … i1 + 1 (the outline reaches half a bit beyond the centres' box), then read out as
+  // the spans of each row: no sorting of pieces, one pass over a few words a row.
+  const std::int64_t row_lo = j0 - 1, row_hi = j1 + 1, col_lo = i0 - 1, col_hi = i1 + 1;
+  const auto words = static_cast<std::size_t>((col_hi - col_lo + 1 + 63) / 64);
+  boost::container::small_vector<std::uint64_t, 256> bitmap(static_cast<std::size_t>(row_hi - row_lo + 1) * words, 0u);
   // The bit whose centre segment (k − ½ + ε, k + ½ − ε) holds x; none for x within ε of a seam:
   // ε = 10⁻³ bit (0.1 mm at 10 cm) exceeds the float rounding of the vertices up to ~2 km from
   // the origin, so an edge laid along a seam sets no bit beyond it.
@@ -127,8 +129,13 @@ FootprintRaster Footprint::rasterise(std::span<const Eigen::Vector2d> ring) cons
     return static_cast<std::int64_t>(k);
   };
   const auto add_piece = [&](std::int64_t j, std::int64_t first, std::int64_t last) {
-    pieces.push_back({static_cast<std::int32_t>(std::clamp(j, row_lo, row_hi)), static_cast<std::int32_t>(first),
-                      static_cast<std::int32_t>(last)});
+    std::uint64_t* row = bitmap.data() + static_cast<std::size_t>(std::clamp(j, row_lo, row_hi) - row_lo) * words;
+    const auto c0 = static_cast<std::size_t>(std::max(first, col_lo) - col_lo);
+    const auto c1 = static_cast<std::size_t>(std::min(last, col_hi) - col_lo);
+    for (std::size_t w = c0 / 64; w <= c1 / 64; ++w) {
+      const std::size_t lo = w == c0 / 64 ? c0 % 64 : 0, hi = w == c1 / 64 ? c1 % 64 : 63;
+      row[w] |= (~std::uint64_t{0} >> (63 - hi)) & (~std::uint64_t{0} << lo);
+    }
   };
   for (std::size_t k = 0; k < ring.size(); ++k) {
     const Eigen::Vector2d& a = ring[k];
@@ -168,29 +175,33 @@ FootprintRaster Footprint::rasterise(std::span<const Eigen::Vector2d> ring) cons
     const auto last = static_cast<std::int64_t>(std::floor(crossings[k + 1].u));
     if (first <= last) add_piece(crossings[k].j, first, last);
   }
-  // Grouped by row (counting sort), each row's few pieces sorted by i_first and joined where they
-  // overlap or touch.
-  const auto row_count = static_cast<std::size_t>(row_hi - row_lo + 1);
-  boost::container::small_vector<std::uint32_t, 72> start(row_count + 1, 0u);
-  for (const FootprintSpan& piece : pieces) ++start[static_cast<std::size_t>(piece.j - row_lo) + 1];
-  for (std::size_t r = 0; r < row_count; ++r) start[r + 1] += start[r];
-  boost::container::small_vector<FootprintSpan, 128> by_row(pieces.size());
-  {
-    boost::container::small_vector<std::uint32_t, 72> next(start.begin(), start.end() - 1);
-    for (const FootprintSpan& piece : pieces) by_row[next[static_cast<std::size_t>(piece.j - row_lo)]++] = piece;
-  }
+  // Each row's runs of set bits, in order (a run may continue across words; no bit beyond
+  // col_hi is set, so a run still open after the last word ends at its last bit).
   auto& spans = raster.spans;
   spans.reserve(static_cast<std::size_t>(rows) + 2);  // one span a row for a convex cell
-  for (std::size_t r = 0; r < row_count; ++r) {
-    const auto row_begin = by_row.begin() + start[r], row_end = by_row.begin() + start[r + 1];
-    std::sort(row_begin, row_end, [](const FootprintSpan& x, const FootprintSpan& y) { return x.i_first < y.i_first; });
-    const std::size_t row_first_span = spans.size();
-    for (auto piece = row_begin; piece != row_end; ++piece) {
-      if (spans.size() > row_first_span && piece->i_first <= spans.back().i_last + 1)
-        spans.back().i_last = std::max(spans.back().i_last, piece->i_last);
-      else
-        spans.push_back(*piece);
+  const auto add_span = [&](std::int64_t j, std::int64_t first, std::int64_t last) {
+    spans.push_back({static_cast<std::int32_t>(j), static_cast<std::int32_t>(col_lo + first),
+                     static_cast<std::int32_t>(col_lo + last)});
+  };
+  for (std::int64_t j = row_lo; j <= row_hi; ++j) {
+    const std::uint64_t* row = bitmap.data() + static_cast<std::size_t>(j - row_lo) * words;
+    std::int64_t run_first = -1;  // bit index (from col_lo) of the open run's first bit
+    for (std::size_t w = 0; w < words; ++w) {
+      for (int at = 0; at < 64;) {
+        const std::uint64_t from_at = ~std::uint64_t{0} << at;
+        const std::uint64_t wanted = (run_first < 0 ? row[w] : ~row[w]) & from_at;  // a start or an end
+        if (wanted == 0) break;
+        at = std::countr_zero(wanted);
+        const auto bit = static_cast<std::int64_t>(w * 64) + at;
+        if (run_first < 0) {
+          run_first = bit;
+        } else {
+          add_span(j, run_first, bit - 1);
+          run_first = -1;
+        }
+      }
     }
+    if (run_first >= 0) add_span(j, run_first, static_cast<std::int64_t>(words * 64) - 1);
   }
   return raster;
 }
