@@ -102,23 +102,30 @@ FootprintRaster Footprint::rasterise(std::span<const Eigen::Vector2d> ring) cons
   if (cols <= 0 || rows <= 0 || cols * rows > 4'000'000) return raster;  // degenerate or absurd
   // In grid units u = s/res − ½, v = t/res − ½ bit (i, j) has its centre at (i, j).
   // Inside: each edge crosses the rows j with min(v_a, v_b) ≤ j < max(v_a, v_b) (half-open, so a
-  // vertex on a row counts once) at u_j = u_a + (j − v_a)(u_b − u_a)/(v_b − v_a); sorted by
-  // (j, u), the crossings of a row pair up into the runs [u_0, u_1] inside the polygon (even–odd),
-  // which hold the bits ⌈u_0⌉ … ⌊u_1⌋. Outline: that crossing is bit (⌊u_j + ½⌋, j), and the
-  // crossing of column i at v_i likewise bit (i, ⌊v_i + ½⌋), unless it lies on a seam.
-  struct Crossing {
-    std::int64_t j;
-    double u;
-    bool operator<(const Crossing& o) const { return j != o.j ? j < o.j : u < o.u; }
-  };
-  boost::container::small_vector<Crossing, 64> crossings;  // a cell's crossings fit: no heap
-  crossings.reserve(2 * static_cast<std::size_t>(rows));
+  // vertex on a row counts once) at u_j = u_a + (j − v_a)(u_b − u_a)/(v_b − v_a); the crossings
+  // of a row bound the runs inside the polygon (even–odd). Outline: that crossing is bit
+  // (⌊u_j + ½⌋, j), and the crossing of column i at v_i likewise bit (i, ⌊v_i + ½⌋), unless it
+  // lies on a seam.
   // The outline's and inside's bits gathered in a bitmap of rows j0 − 1 … j1 + 1 and columns
   // i0 − 1 … i1 + 1 (the outline reaches half a bit beyond the centres' box), then read out as
   // the spans of each row: no sorting of pieces, one pass over a few words a row.
   const std::int64_t row_lo = j0 - 1, row_hi = j1 + 1, col_lo = i0 - 1, col_hi = i1 + 1;
   const auto words = static_cast<std::size_t>((col_hi - col_lo + 1 + 63) / 64);
-  boost::container::small_vector<std::uint64_t, 256> bitmap(static_cast<std::size_t>(row_hi - row_lo + 1) * words, 0u);
+  const auto cells = static_cast<std::size_t>(row_hi - row_lo + 1) * words;
+  boost::container::small_vector<std::uint64_t, 256> bitmap(cells, 0u);  // the outline's bits
+  boost::container::small_vector<std::uint64_t, 256> inside(cells, 0u);  // the centres inside
+  // Even–odd by parity: a crossing of row j at u flips the row's bits i ≥ ⌈u⌉, so bit i ends set
+  // when an odd number of crossings lie at or left of its centre (u ≤ i). That is the runs
+  // ⌈u_0⌉ … ⌊u_1⌋ but for a crossing exactly on a centre, u_1 = i: the outline sets that bit.
+  const auto flip_from = [&](std::int64_t j, double u) {
+    std::uint64_t* row = inside.data() + static_cast<std::size_t>(j - row_lo) * words;
+    // Clamped into the bitmap, not skipped, so that the row's flips still cancel at its end.
+    const double first = std::clamp(std::ceil(u), static_cast<double>(col_lo), static_cast<double>(col_hi + 1));
+    const auto c0 = static_cast<std::size_t>(static_cast<std::int64_t>(first) - col_lo);
+    if (c0 >= words * 64) return;
+    row[c0 / 64] ^= ~std::uint64_t{0} << (c0 % 64);
+    for (std::size_t w = c0 / 64 + 1; w < words; ++w) row[w] = ~row[w];
+  };
   // The bit whose centre segment (k − ½ + ε, k + ½ − ε) holds x; none for x within ε of a seam:
   // ε = 10⁻³ bit (0.1 mm at 10 cm) exceeds the float rounding of the vertices up to ~2 km from
   // the origin, so an edge laid along a seam sets no bit beyond it.
@@ -148,7 +155,7 @@ FootprintRaster Footprint::rasterise(std::span<const Eigen::Vector2d> ring) cons
       const auto last = static_cast<std::int64_t>(std::ceil(std::max(va, vb))) - 1;  // < max
       for (std::int64_t j = first; j <= last; ++j) {
         const double u = ua + (static_cast<double>(j) - va) * du_dv;
-        if (j >= j0 && j <= j1) crossings.push_back({j, u});
+        if (j >= j0 && j <= j1) flip_from(j, u);
         if (const auto i = nearest(u)) add_piece(j, *i, *i);
       }
     }
@@ -168,13 +175,8 @@ FootprintRaster Footprint::rasterise(std::span<const Eigen::Vector2d> ring) cons
     }
   }
   // A closed ring crosses each row an even number of times under the half-open rule (the ends of
-  // two edges meeting at a vertex are the same numbers), so pairs never straddle two rows.
-  std::sort(crossings.begin(), crossings.end());
-  for (std::size_t k = 0; k + 1 < crossings.size(); k += 2) {
-    const auto first = static_cast<std::int64_t>(std::ceil(crossings[k].u));
-    const auto last = static_cast<std::int64_t>(std::floor(crossings[k + 1].u));
-    if (first <= last) add_piece(crossings[k].j, first, last);
-  }
+  // two edges meeting at a vertex are the same numbers): every row's flips cancel beyond its last
+  // crossing, the bits past col_hi included.
   // Each row's runs of set bits, in order (a run may continue across words; no bit beyond
   // col_hi is set, so a run still open after the last word ends at its last bit).
   auto& spans = raster.spans;
@@ -184,7 +186,9 @@ FootprintRaster Footprint::rasterise(std::span<const Eigen::Vector2d> ring) cons
                      static_cast<std::int32_t>(col_lo + last)});
   };
   for (std::int64_t j = row_lo; j <= row_hi; ++j) {
-    const std::uint64_t* row = bitmap.data() + static_cast<std::size_t>(j - row_lo) * words;
+    std::uint64_t* row = bitmap.data() + static_cast<std::size_t>(j - row_lo) * words;
+    const std::uint64_t* in = inside.data() + static_cast<std::size_t>(j - row_lo) * words;
+    for (std::size_t w = 0; w < words; ++w) row[w] |= in[w];
     std::int64_t run_first = -1;  // bit index (from col_lo) of the open run's first bit
     for (std::size_t w = 0; w < words; ++w) {
       for (int at = 0; at < 64;) {
