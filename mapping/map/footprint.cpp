@@ -100,23 +100,21 @@ FootprintRaster Footprint::rasterise(std::span<const Eigen::Vector2d> ring) cons
   const auto j1 = static_cast<std::int64_t>(std::floor(hi_t * inv - 0.5));
   const std::int64_t cols = i1 - i0 + 1, rows = j1 - j0 + 1;
   if (cols <= 0 || rows <= 0 || cols * rows > 4'000'000) return raster;  // degenerate or absurd
-  // In grid units u = s/res − ½, v = t/res − ½ bit (i, j) has its centre at (i, j).
-  // Inside: each edge crosses the rows j with min(v_a, v_b) ≤ j < max(v_a, v_b) (half-open, so a
-  // vertex on a row counts once) at u_j = u_a + (j − v_a)(u_b − u_a)/(v_b − v_a); the crossings
-  // of a row bound the runs inside the polygon (even–odd). Outline: that crossing is bit
-  // (⌊u_j + ½⌋, j), and the crossing of column i at v_i likewise bit (i, ⌊v_i + ½⌋), unless it
-  // lies on a seam.
-  // The outline's and inside's bits gathered in a bitmap of rows j0 − 1 … j1 + 1 and columns
-  // i0 − 1 … i1 + 1 (the outline reaches half a bit beyond the centres' box), then read out as
-  // the spans of each row: no sorting of pieces, one pass over a few words a row.
+  // In grid units u = s/res − ½, v = t/res − ½ bit (i, j) has its centre at (i, j). Each edge
+  // crosses the rows j with min(v_a, v_b) ≤ j < max(v_a, v_b) (half-open, so a vertex on a row
+  // counts once) at u_j = u_a + (j − v_a)(u_b − u_a)/(v_b − v_a), and the columns i likewise at v_i.
+  // Inside (even–odd, by parity): a row crossing flips the row's bits i ≥ ⌈u_j⌉, so a bit ends set
+  // when an odd number of crossings lie at or left of its centre; a closed ring crosses each row an
+  // even number of times, so the flips cancel past its last crossing. (That is the runs
+  // ⌈u_0⌉ … ⌊u_1⌋ but for a crossing exactly on a centre, u_1 = i, which the outline sets.)
+  // Outline: bit (⌊u_j + ½⌋, j) of each row crossing and (i, ⌊v_i + ½⌋) of each column crossing,
+  // unless it lies on a seam. Both go into bitmaps of the cell's box widened by one bit (the
+  // outline reaches half a bit beyond the centres' box), read out as each row's runs.
   const std::int64_t row_lo = j0 - 1, row_hi = j1 + 1, col_lo = i0 - 1, col_hi = i1 + 1;
   const auto words = static_cast<std::size_t>((col_hi - col_lo + 1 + 63) / 64);
   const auto cells = static_cast<std::size_t>(row_hi - row_lo + 1) * words;
   boost::container::small_vector<std::uint64_t, 256> bitmap(cells, 0u);  // the outline's bits
   boost::container::small_vector<std::uint64_t, 256> inside(cells, 0u);  // the centres inside
-  // Even–odd by parity: a crossing of row j at u flips the row's bits i ≥ ⌈u⌉, so bit i ends set
-  // when an odd number of crossings lie at or left of its centre (u ≤ i). That is the runs
-  // ⌈u_0⌉ … ⌊u_1⌋ but for a crossing exactly on a centre, u_1 = i: the outline sets that bit.
   const auto flip_from = [&](std::int64_t j, double u) {
     std::uint64_t* row = inside.data() + static_cast<std::size_t>(j - row_lo) * words;
     // Clamped into the bitmap, not skipped, so that the row's flips still cancel at its end.
@@ -135,6 +133,8 @@ FootprintRaster Footprint::rasterise(std::span<const Eigen::Vector2d> ring) cons
     if (x - (k - 0.5) < kSeam || (k + 0.5) - x < kSeam) return std::nullopt;
     return static_cast<std::int64_t>(k);
   };
+  // Outline bits first … last of row j (within the widened box by construction; clamped so that
+  // no rounding can write outside the bitmap).
   const auto add_piece = [&](std::int64_t j, std::int64_t first, std::int64_t last) {
     std::uint64_t* row = bitmap.data() + static_cast<std::size_t>(std::clamp(j, row_lo, row_hi) - row_lo) * words;
     const auto c0 = static_cast<std::size_t>(std::max(first, col_lo) - col_lo);
@@ -174,9 +174,6 @@ FootprintRaster Footprint::rasterise(std::span<const Eigen::Vector2d> ring) cons
       if (run_j) add_piece(*run_j, run_first, last);
     }
   }
-  // A closed ring crosses each row an even number of times under the half-open rule (the ends of
-  // two edges meeting at a vertex are the same numbers): every row's flips cancel beyond its last
-  // crossing, the bits past col_hi included.
   // Each row's runs of set bits, in order (a run may continue across words; no bit beyond
   // col_hi is set, so a run still open after the last word ends at its last bit).
   auto& spans = raster.spans;
@@ -213,11 +210,10 @@ FootprintRaster Footprint::rasterise(std::span<const Eigen::Vector2d> ring) cons
 double Footprint::new_area_m2(const FootprintRaster& raster) const {
   std::size_t added = 0;
   // Consecutive spans mostly fall in the same tile: it is looked up again only when it changes.
-  std::pair<std::int32_t, std::int32_t> key{0, 0};
-  const FootprintTile* tile = nullptr;
-  bool found = false;
+  std::optional<std::pair<std::int32_t, std::int32_t>> key;
+  const FootprintTile* tile = nullptr;  // find_tile(*key), null when absent
   for_each_tile_row(raster, [&](std::int32_t ti, std::int32_t tj, int bj, std::uint32_t bits) {
-    if (!found || key != std::pair(ti, tj)) key = {ti, tj}, tile = find_tile(ti, tj), found = true;
+    if (key != std::pair(ti, tj)) key = {ti, tj}, tile = find_tile(ti, tj);
     added += static_cast<std::size_t>(std::popcount(bits & ~(tile ? tile->rows[bj] : 0u)));
   });
   return static_cast<double>(added) * resolution_m_ * resolution_m_;
@@ -226,10 +222,10 @@ double Footprint::new_area_m2(const FootprintRaster& raster) const {
 double Footprint::add(const FootprintRaster& raster) {
   std::size_t added = 0;
   // As in new_area_m2; a tile inserted moves the others, but only the current one is held.
-  std::pair<std::int32_t, std::int32_t> key{0, 0};
+  std::optional<std::pair<std::int32_t, std::int32_t>> key;
   FootprintTile* tile = nullptr;
   for_each_tile_row(raster, [&](std::int32_t ti, std::int32_t tj, int bj, std::uint32_t bits) {
-    if (!tile || key != std::pair(ti, tj)) key = {ti, tj}, tile = &tile_at(ti, tj);
+    if (key != std::pair(ti, tj)) key = {ti, tj}, tile = &tile_at(ti, tj);
     std::uint32_t& row = tile->rows[bj];
     added += static_cast<std::size_t>(std::popcount(bits & ~row));
     row |= bits;

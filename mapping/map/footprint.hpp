@@ -1,9 +1,9 @@
 #pragma once
 /// The footprint of a surface: which parts of its plane have been observed, as a sparse set of
 /// square tiles of occupancy bits in the surface's 2D basis. Fusing a cell rasterises its polygon
-/// (the bits its inside and outline hold, as row spans) and counts the bits it newly sets, so the per-cell cost is bounded
-/// by the cell's own size, not by the surface's history, and a surface's memory grows with the
-/// area it covers (res² per bit), not with the number of observations.
+/// (the bits its inside and outline hold, as row spans) and counts the bits it newly sets, so the
+/// per-cell cost is bounded by the cell's own size, not by the surface's history, and a surface's
+/// memory grows with the area it covers (res² per bit), not with the number of observations.
 #include <array>
 #include <cstdint>
 #include <span>
@@ -52,8 +52,8 @@ class Footprint {
   explicit Footprint(double resolution_m);
 
   /// Marks the bits of the polygon `ring` (FootprintRaster: inside or on its outline; basis
-  /// coordinates (s, t) in m, either orientation, closing vertex optional). Returns the area newly covered:
-  /// (bits set now that were clear before) · res² (m²).
+  /// coordinates (s, t) in m, either orientation, closing vertex optional). Returns the area
+  /// newly covered: (bits set now that were clear before) · res² (m²).
   double add_polygon(std::span<const Eigen::Vector2d> ring);
   /// The same in two steps, so that the area a polygon would add is known before the footprint
   /// changes: rasterise (the bits of add_polygon, nothing marked), new_area_m2 (the area add

@@ -3,7 +3,6 @@
 /// (paper §5.2), with a spatial index, footprint fusion (map size grows with area, not frames),
 /// planner queries and memory accounting.
 #include <array>
-#include <boost/container/flat_set.hpp>
 #include <cstdint>
 #include <deque>
 #include <map>
@@ -14,6 +13,8 @@
 #include <span>
 #include <unordered_map>
 #include <vector>
+
+#include <boost/container/flat_set.hpp>
 
 #include "core/config/map_config.hpp"
 #include "core/planecell.hpp"

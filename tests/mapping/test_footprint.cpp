@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <limits>
+#include <random>
 #include <span>
 #include <vector>
 
@@ -166,11 +167,9 @@ TEST(Footprint, RasterHoldsExactlyTheBitsInsideOrOnTheOutline) {
   std::vector<std::vector<Eigen::Vector2d>> rings{
       {{0.03, 0.02}, {2.17, 0.04}, {2.21, 1.93}, {1.41, 1.96}, {1.12, 0.61}, {0.83, 1.88}, {0.02, 1.97}},
       {{3.01, -0.37}, {3.43, -0.32}, {3.36, 2.71}}};
-  std::uint32_t state = 12345u;
-  const auto uniform = [&state] {  // xorshift32 in [0, 1)
-    state ^= state << 13, state ^= state >> 17, state ^= state << 5;
-    return static_cast<double>(state) / 4294967296.0;
-  };
+  std::mt19937 rng(12345);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  const auto uniform = [&] { return unit(rng); };
   for (int n = 0; n < 20; ++n) {
     std::vector<Eigen::Vector2d> star;
     const Eigen::Vector2d centre(-2.0 + 4.0 * uniform(), -2.0 + 4.0 * uniform());
