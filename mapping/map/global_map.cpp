@@ -510,45 +510,62 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
     FootprintRaster raster;              ///< k on S's footprint grid
   };
   std::vector<Reobserved> reobserved(fresh.size());
-  std::vector<std::uint32_t> tried;  // surfaces tested for one new cell (storage reused)
+  std::vector<std::uint32_t> tried, ranged;  // the search's surfaces for one new cell (storage reused)
   /// within[i]: whether new cell k lies within the gap of its candidate ids[i] (polygons_within_m),
   /// −1 untested: the search's tests, reused by the neighbour search (storage reused).
   std::vector<std::int8_t> within;
-  const auto find_reobserved = [&](std::size_t k, const Aabb& near_box,
-                                   std::span<const std::uint32_t> ids, const auto& met_of) {
+  std::vector<MetCell*> met_at;  // met_cells' entry of each candidate of one new cell (storage reused)
+  const auto find_reobserved = [&](std::size_t k, const Aabb& near_box, std::span<const std::uint32_t> ids,
+                                   std::span<MetCell* const> met_at) {
     const Planecell& cell = *fresh[k];
-    tried.clear();
+    // The search ends at the first candidate within the gap whose surface S decides it: S is
+    // taken (in range, footprint test passed) or S is much less precise (the regular path). A
+    // surface that cannot decide (dormant, out of the CRF's range) is set aside before its cells'
+    // polygons are tested, and the footprint test runs on the first of its cells within the gap.
+    tried.clear();   // surfaces done with: set aside, or met within the gap and not taken
+    ranged.clear();  // surfaces in range of k (or much less precise), none of their cells within yet
     for (std::size_t i = 0; i < ids.size(); ++i) {
       const std::uint32_t id = ids[i];
-      MetCell& met = met_of(id);
+      MetCell& met = *met_at[i];
       const std::uint32_t surface_id = met.cell->surface;
       if (!met.box.overlaps(near_box) ||
           std::find(tried.begin(), tried.end(), surface_id) != tried.end())
         continue;
+      const Surface& surface = *met.surface;
+      // Known only from much less precise views: the regular path (k may replace its cells).
+      const bool imprecise = effective_sigma_m(surface.information, surface.observed_area_m2) >
+                             config_.redundant_precision_ratio *
+                                 std::max<double>(cell.depth_sigma_m, config_.residual_scale_m);
+      if (std::find(ranged.begin(), ranged.end(), surface_id) == ranged.end()) {
+        if (!surface.detail || surface.detail->footprint.empty()) {  // dormant: the regular path
+          tried.push_back(surface_id);
+          continue;
+        }
+        if (!imprecise) {
+          const auto state_it = labels.find(surface_id);
+          const bool in_range =
+              merger_
+                  .evaluate_range(units[k], labels.at(units[k].label), units[k],
+                                  state_it != labels.end() ? state_it->second : state_of_surface(surface))
+                  .in_range;
+          if (!in_range) {
+            tried.push_back(surface_id);
+            continue;
+          }
+        }
+        ranged.push_back(surface_id);
+      }
       within[i] = polygons_within_m(cell.plane, cell.vertices_m, fresh_box[k], met.cell->plane,
                                     met.polygon(), met.box, gap);
       if (!within[i]) continue;
+      if (imprecise) return false;
       tried.push_back(surface_id);
-      const Surface& surface = *met.surface;
-      if (!surface.detail || surface.detail->footprint.empty())
-        continue;  // dormant: the regular path
-      // Known only from much less precise views: the regular path (k may replace its cells).
-      if (effective_sigma_m(surface.information, surface.observed_area_m2) >
-          config_.redundant_precision_ratio *
-              std::max<double>(cell.depth_sigma_m, config_.residual_scale_m))
-        return false;
-      const auto state_it = labels.find(surface_id);
-      std::optional<LabelState> made;
-      const LabelState& state =
-          state_it != labels.end() ? state_it->second : made.emplace(state_of_surface(surface));
-      if (!merger_.evaluate_range(units[k], labels.at(units[k].label), units[k], state).in_range)
-        continue;
       const SurfaceDetail& detail = *surface.detail;
       FootprintRaster raster =
           detail.footprint.rasterise(project_to_basis(cell.vertices_m, detail.basis));
       if (!(detail.footprint.new_area_m2(raster) < config_.fuse_new_area_fraction * fresh_area[k]))
         continue;
-      if (made) labels.emplace(surface_id, std::move(*made));  // S's label state, for the CRF
+      if (!labels.contains(surface_id)) labels.emplace(surface_id, state_of_surface(surface));  // for the CRF
       reobserved[k] = {id, surface_id, std::move(raster)};
       return true;
     }
@@ -613,12 +630,16 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
       }
       return met->second;
     };
+    // Each candidate's entry, looked up once for the search and the neighbour loop (hash nodes
+    // do not move).
+    met_at.clear();
+    for (std::uint32_t id : nearby) met_at.push_back(&met_of(id));
     within.assign(nearby.size(), -1);
     const bool prefused =
-        config_.prefuse_reobservations && find_reobserved(k, near_box, nearby, met_of);
+        config_.prefuse_reobservations && find_reobserved(k, near_box, nearby, met_at);
     for (std::size_t i = 0; i < nearby.size(); ++i) {
       const std::uint32_t id = nearby[i];
-      MetCell& met_cell = met_of(id);
+      MetCell& met_cell = *met_at[i];
       const MapCell& old = *met_cell.cell;
       const Aabb& old_box = met_cell.box;
       if (!old_box.overlaps(reach_box)) continue;

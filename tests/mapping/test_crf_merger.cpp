@@ -116,6 +116,32 @@ TEST(LabelAdjacency, DenseAndSparseLabelValuesCountTheSamePairs) {
   EXPECT_EQ(label_adjacency(sparse), spread_by_hand);
 }
 
+TEST(LabelAdjacency, EveryWidthCountsThePairsOfEveryColumn) {
+  // label_adjacency skips blocks of 8 pixels equal to their right and lower neighbours: images of
+  // every width from 1 to 27 (blocks, remainders, a pair at any column of a block), mostly
+  // uniform with a few single-pixel labels and -1s, give the pairs counted by hand.
+  std::mt19937 rng(11);
+  for (int cols = 1; cols <= 27; ++cols) {
+    cv::Mat labels(9, cols, CV_32S, cv::Scalar(3));
+    labels(cv::Rect(0, 5, cols, 4)) = 4;
+    for (int k = 0; k < 4; ++k)
+      labels.at<int>(static_cast<int>(rng() % 9), static_cast<int>(rng() % static_cast<unsigned>(cols))) =
+          static_cast<int>(rng() % 7) - 1;
+    std::map<std::pair<int, int>, std::uint32_t> expected;
+    for (int r = 0; r < labels.rows; ++r)
+      for (int c = 0; c < labels.cols; ++c)
+        for (const auto& [dr, dc] : {std::pair{0, 1}, std::pair{1, 0}}) {
+          if (r + dr >= labels.rows || c + dc >= labels.cols) continue;
+          const int p = labels.at<int>(r, c), q = labels.at<int>(r + dr, c + dc);
+          if (p != q && p >= 0 && q >= 0) ++expected[{std::min(p, q), std::max(p, q)}];
+        }
+    std::vector<LabelEdge> by_hand;
+    for (const auto& [pair, n] : expected)
+      by_hand.push_back({static_cast<std::uint32_t>(pair.first), static_cast<std::uint32_t>(pair.second), n});
+    EXPECT_EQ(label_adjacency(labels), by_hand) << cols << " columns";
+  }
+}
+
 TEST(EnergyTerms, MatchHandComputedValues) {
   ColourHistogram a{}, b{};
   a[0] = 0.5f, a[1] = 0.5f;
