@@ -886,21 +886,13 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
 template <class Reject, class Visit>
 std::uint32_t GlobalMap::visit_reached_surfaces(std::uint32_t id, std::span<const Planecell* const> fresh,
                                                 std::span<const std::size_t> ks, std::span<const Aabb> boxes,
-                                                double gap_m, CheckedSurfaces& checked, Reject&& reject,
-                                                Visit&& visit, const std::vector<std::uint32_t>* given) {
+                                                double gap_m, std::span<const ReachCell* const> candidates,
+                                                CheckedSurfaces& checked, Reject&& reject, Visit&& visit) {
   std::vector<Aabb> reach;  // each reaching cell's bounds inflated by the gap
-  Aabb all;
-  for (const Aabb& box : boxes) {
-    reach.push_back(box.inflated(gap_m));
-    all.extend(reach.back());
-  }
-  std::vector<std::uint32_t> nearby;
-  if (!given) index_.candidates(all, nearby);
+  for (const Aabb& box : boxes) reach.push_back(box.inflated(gap_m));
   const Surface* self = nullptr;  // surfaces_.at(id), looked up again after each visit
-  for (std::uint32_t cell_id : given ? *given : nearby) {
-    const auto cell_it = cells_.find(cell_id);
-    if (cell_it == cells_.end()) continue;
-    const MapCell& old = cell_it->second;
+  for (const ReachCell* candidate : candidates) {
+    const MapCell& old = *candidate->cell;
     const std::uint32_t other_id = old.surface;
     if (other_id == id || checked.contains(other_id)) continue;
     const auto other_it = surfaces_.find(other_id);
@@ -910,8 +902,8 @@ std::uint32_t GlobalMap::visit_reached_surfaces(std::uint32_t id, std::span<cons
       checked.insert(other_id);
       continue;
     }
-    // The stored box (no decoding) rules out most candidates; the polygons decide the rest.
-    const Aabb old_box = old.vertices_m.bounds();
+    // The stored box rules out most candidates; the polygons decide the rest.
+    const Aabb& old_box = *candidate->box;
     if (std::none_of(reach.begin(), reach.end(), [&](const Aabb& r) { return r.overlaps(old_box); })) continue;
     const std::vector<Eigen::Vector3f> old_vertices = old.vertices_m.vertices();
     std::size_t w = 0;
@@ -960,15 +952,39 @@ void GlobalMap::bridge_surfaces(std::span<const Planecell* const> fresh, std::sp
            std::max(self.area_m2, other.area_m2) < config_.bridge_min_area_m2;
   };
   std::optional<FrameReach> frame_reach;  // made for the first long bridge that needs it
+  // The stored cells within bridge_gap_m of this frame's, from one index query, with the buckets
+  // their boxes touch: a surface's walk takes those sharing a bucket with its reach, which are
+  // its own query's candidates (SpatialIndex::BucketRange), without querying the index again.
+  std::vector<ReachCell> near_cells;
+  std::vector<SpatialIndex::BucketRange> near_buckets;
+  std::vector<const ReachCell*> walk;  // one surface's candidates (storage reused)
   for (const auto& [reached_id, ks] : reached) {
     std::uint32_t id = reached_id;  // follows the surface when a merge absorbs it
     if (const auto it = surfaces_.find(id); it == surfaces_.end() || it->second.observations < mature) continue;
     std::vector<Aabb> boxes;  // each reaching cell's bounds
     for (std::size_t k : ks) boxes.push_back(fresh_box[k]);
     CheckedSurfaces checked;  // other surfaces tested against this one
-    if (config_.bridge_gap_m > 0.0)
+    if (config_.bridge_gap_m > 0.0) {
+      if (near_cells.empty()) {  // the first mature surface of the frame
+        Aabb frame;
+        for (const Aabb& box : fresh_box) frame.extend(box.inflated(config_.bridge_gap_m));
+        std::vector<std::uint32_t> ids;
+        index_.candidates(frame, ids);
+        for (std::uint32_t cell_id : ids)
+          if (const auto it = cells_.find(cell_id); it != cells_.end()) {
+            const Aabb box = it->second.vertices_m.bounds();
+            near_cells.push_back({&it->second, box});
+            near_buckets.push_back(index_.bucket_range(box));
+          }
+      }
+      Aabb all;
+      for (const Aabb& box : boxes) all.extend(box.inflated(config_.bridge_gap_m));
+      const SpatialIndex::BucketRange range = index_.bucket_range(all);
+      walk.clear();
+      for (std::size_t c = 0; c < near_cells.size(); ++c)
+        if (near_buckets[c].overlaps(range)) walk.push_back(&near_cells[c]);
       id = visit_reached_surfaces(
-          id, fresh, ks, boxes, config_.bridge_gap_m, checked, reject,
+          id, fresh, ks, boxes, config_.bridge_gap_m, walk, checked, reject,
           [&](std::uint32_t self_id, const MapCell& old, const std::vector<Eigen::Vector3f>& old_vertices,
               const Planecell& cell) {
             const std::uint32_t other_id = old.surface;
@@ -990,6 +1006,7 @@ void GlobalMap::bridge_surfaces(std::span<const Planecell* const> fresh, std::sp
               return self_id;
             return merge_surfaces(self_id, std::move(a), other_id, std::move(b), touched, report);
           });
+    }
     if (config_.bridge_long_gap_m > 0.0)
       id = bridge_long(id, fresh, fresh_box, ks, boxes, camera_centre, checked, frame_reach,
                        touched, report);
@@ -1057,17 +1074,18 @@ std::uint32_t GlobalMap::bridge_long(std::uint32_t id, std::span<const Planecell
   }
   Aabb all;  // as visit_reached_surfaces bounds the reach
   for (const Aabb& box : boxes) all.extend(box.inflated(config_.bridge_long_gap_m));
-  std::vector<std::uint32_t> given;
-  for (auto& [cell, bounds] : frame_reach->cells) {
+  std::vector<const ReachCell*> given;
+  for (ReachCell& reach_cell : frame_reach->cells) {
+    const MapCell* cell = reach_cell.cell;
     if (cell->surface == id) continue;
     const auto it = surfaces_.find(cell->surface);
     if (it == surfaces_.end() || it->second.observations < mature || it->second.area_m2 < min_area ||
         !Aabb(it->second.bounds).overlaps(all))
       continue;
-    if (!bounds) bounds = cell->vertices_m.bounds();
-    if (all.overlaps(*bounds)) given.push_back(cell->id);
+    if (!reach_cell.box) reach_cell.box = cell->vertices_m.bounds();
+    if (all.overlaps(*reach_cell.box)) given.push_back(&reach_cell);
   }
-  return visit_reached_surfaces(id, fresh, ks, boxes, config_.bridge_long_gap_m, checked, reject, visit, &given);
+  return visit_reached_surfaces(id, fresh, ks, boxes, config_.bridge_long_gap_m, given, checked, reject, visit);
 }
 
 std::uint32_t GlobalMap::merge_surfaces(std::uint32_t a_id, LabelState a, std::uint32_t b_id, LabelState b,

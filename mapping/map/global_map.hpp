@@ -310,18 +310,22 @@ class GlobalMap {
   void bridge_surfaces(std::span<const Planecell* const> fresh, std::span<const std::size_t> fresh_input,
                        std::span<const Aabb> fresh_box, const Eigen::Vector3d& camera_centre,
                        std::set<std::uint32_t>& touched, MergeReport& report);
+  /// A stored cell the bridges may reach, with its bounds once decoded.
+  struct ReachCell {
+    const MapCell* cell = nullptr;
+    std::optional<Aabb> box;  ///< cell->vertices_m.bounds(), decoded when first needed
+  };
   /// The bridges' walk: for each surface other than `id` and not in `checked` with a stored cell
   /// `old` that one of this frame's cells fresh[ks[w]] (bounds boxes[w]) of surface `id` reaches
-  /// within `gap_m` (polygons_within_m; the index's candidates in id order), once per surface:
-  /// `other` goes into `checked`, then `id = visit(id, old, old's vertices, *fresh[ks[w]])` (a merge
-  /// may give `id` another surface). A surface with reject(self, other) goes into `checked`
-  /// unvisited. Returns `id`. The candidates are `given` (stored cell ids in id order) when given,
-  /// else the index's candidates in the reach.
+  /// within `gap_m` (polygons_within_m), once per surface: `other` goes into `checked`, then
+  /// `id = visit(id, old, old's vertices, *fresh[ks[w]])` (a merge may give `id` another surface).
+  /// A surface with reject(self, other) goes into `checked` unvisited. `candidates`: the stored
+  /// cells to walk, in id order, their boxes decoded. Returns `id`.
   template <class Reject, class Visit>
   std::uint32_t visit_reached_surfaces(std::uint32_t id, std::span<const Planecell* const> fresh,
                                        std::span<const std::size_t> ks, std::span<const Aabb> boxes,
-                                       double gap_m, CheckedSurfaces& checked, Reject&& reject,
-                                       Visit&& visit, const std::vector<std::uint32_t>* given = nullptr);
+                                       double gap_m, std::span<const ReachCell* const> candidates,
+                                       CheckedSurfaces& checked, Reject&& reject, Visit&& visit);
   /// Is a stored cell of a surface other than `a` and `b` within 0.2 m of `point`?
   bool third_surface_near(const Eigen::Vector3d& point, std::uint32_t a, std::uint32_t b) const;
   /// Does the camera see through the gap at `m` between surfaces `a` and `b`: a third surface
@@ -334,8 +338,7 @@ class GlobalMap {
   /// id it ends under. `frame_reach`: the stored cells within bridge_long_gap_m of any of this
   /// frame's cells (bounds fresh_box), made by the first call of the frame that needs it.
   struct FrameReach {
-    /// The index's candidates, in id order, each with its bounds once decoded.
-    std::vector<std::pair<const MapCell*, std::optional<Aabb>>> cells;
+    std::vector<ReachCell> cells;  ///< the index's candidates, in id order
   };
   std::uint32_t bridge_long(std::uint32_t id, std::span<const Planecell* const> fresh,
                             std::span<const Aabb> fresh_box, std::span<const std::size_t> ks,

@@ -28,17 +28,28 @@ SpatialIndex::SpatialIndex(double bucket_m) : bucket_m_(bucket_m) {
                       std::to_string(bucket_m));
 }
 
-template <class F>
-void SpatialIndex::for_each_bucket(const Aabb& box, F&& f) const {
-  if (box.empty() || !box.min.allFinite() || !box.max.allFinite()) return;
+SpatialIndex::BucketRange SpatialIndex::bucket_range(const Aabb& box) const {
+  BucketRange range;
+  if (box.empty() || !box.min.allFinite() || !box.max.allFinite()) return range;
   // Clamped to the key range so a query box of any size stays a finite, in-range loop.
   const double limit = static_cast<double>((1 << 20) - 1);
   const Eigen::Vector3d lo = (box.min / bucket_m_).array().floor().max(-limit).min(limit);
   const Eigen::Vector3d hi = (box.max / bucket_m_).array().floor().max(-limit).min(limit);
-  for (auto x = static_cast<std::int64_t>(lo.x()); x <= static_cast<std::int64_t>(hi.x()); ++x)
-    for (auto y = static_cast<std::int64_t>(lo.y()); y <= static_cast<std::int64_t>(hi.y()); ++y)
-      for (auto z = static_cast<std::int64_t>(lo.z()); z <= static_cast<std::int64_t>(hi.z()); ++z)
-        f(bucket_key(x, y, z));
+  for (int a = 0; a < 3; ++a) {
+    range.lo[a] = static_cast<std::int64_t>(lo[a]);
+    range.hi[a] = static_cast<std::int64_t>(hi[a]);
+  }
+  range.empty = false;
+  return range;
+}
+
+template <class F>
+void SpatialIndex::for_each_bucket(const Aabb& box, F&& f) const {
+  const BucketRange range = bucket_range(box);
+  if (range.empty) return;
+  for (auto x = range.lo[0]; x <= range.hi[0]; ++x)
+    for (auto y = range.lo[1]; y <= range.hi[1]; ++y)
+      for (auto z = range.lo[2]; z <= range.hi[2]; ++z) f(bucket_key(x, y, z));
 }
 
 void SpatialIndex::insert(std::uint32_t id, const Aabb& box) {

@@ -4,6 +4,7 @@
 /// the neighbourhood of the new cells, not on the size of the map. The index keeps only the ids
 /// in their buckets; the exact overlap test asks the owner for an id's box (the map derives it
 /// from the cell's vertices), so the boxes are not stored twice.
+#include <array>
 #include <cstdint>
 #include <unordered_map>
 #include <vector>
@@ -35,6 +36,22 @@ class SpatialIndex {
     std::erase_if(ids, [&](std::uint32_t id) { return !box_of(id).overlaps(box); });
     return ids;
   }
+
+  /// The buckets a box touches: integer bucket coordinates lo … hi on each axis (inclusive),
+  /// floor(coordinate / bucket_m) clamped to the key range; `empty` for an empty or non-finite
+  /// box (no bucket). An id is among candidates(box) iff the range of the box it was registered
+  /// with overlaps the query box's range.
+  struct BucketRange {
+    std::array<std::int64_t, 3> lo{}, hi{};
+    bool empty = true;
+    bool overlaps(const BucketRange& other) const {
+      if (empty || other.empty) return false;
+      for (int a = 0; a < 3; ++a)
+        if (lo[a] > other.hi[a] || other.lo[a] > hi[a]) return false;
+      return true;
+    }
+  };
+  BucketRange bucket_range(const Aabb& box) const;
 
   std::size_t size() const { return size_; }
   /// Half-width of the indexable cube: bucket_m · (2²⁰ − 1) (2 m buckets: ±2097 km).

@@ -103,6 +103,29 @@ TEST_F(SpatialIndexTest, AnswersLikeBruteForceWhateverTheInsertionOrder) {
   }
 }
 
+TEST_F(SpatialIndexTest, CandidatesAreTheIdsWhoseBucketRangeMeetsTheQuerys) {
+  // The bridges filter one frame-wide query by bucket ranges instead of querying per surface:
+  // an id is among candidates(box) exactly when the bucket range of the box it was registered
+  // with overlaps the query's (by hand: the 2 m buckets floor(x / 2) … floor(max / 2) per axis).
+  const SpatialIndex::BucketRange unit = index_.bucket_range(box_at({-1.0, 0.5, 3.9}, {2.5, 1.0, 0.2}));
+  ASSERT_FALSE(unit.empty);
+  EXPECT_EQ(unit.lo, (std::array<std::int64_t, 3>{-1, 0, 1}));
+  EXPECT_EQ(unit.hi, (std::array<std::int64_t, 3>{0, 0, 2}));
+  EXPECT_TRUE(index_.bucket_range(Aabb{}).empty);
+  EXPECT_FALSE(unit.overlaps(index_.bucket_range(Aabb{})));
+  std::mt19937 rng(21);
+  std::uniform_real_distribution<double> x(-110.0, 110.0), y(-10.0, 10.0), z(-3.0, 7.0), size(0.0, 12.0);
+  for (int q = 0; q < 200; ++q) {
+    const Aabb query = box_at({x(rng), y(rng), z(rng)}, {size(rng), size(rng), size(rng)});
+    const SpatialIndex::BucketRange range = index_.bucket_range(query);
+    std::vector<std::uint32_t> by_range;
+    for (const auto& [id, b] : boxes_)
+      if (index_.bucket_range(b).overlaps(range)) by_range.push_back(id);
+    std::sort(by_range.begin(), by_range.end());
+    ASSERT_EQ(index_.candidates(query), by_range) << "query " << q;
+  }
+}
+
 TEST(SpatialIndex, RefusesBadBucketsAndBoxesBeyondItsRange) {
   EXPECT_THROW(SpatialIndex(0.0), ConfigError);
   EXPECT_THROW(SpatialIndex(-1.0), ConfigError);
