@@ -26,17 +26,14 @@ double rms_distance_m(const Plane3& plane, std::span<const Eigen::Vector3f> vert
 /// Midpoint of the closest pair of vertices of two polygons (the boundary point m of ψ).
 Eigen::Vector3d boundary_point(std::span<const Eigen::Vector3f> a,
                                std::span<const Eigen::Vector3f> b) {
-  double best = std::numeric_limits<double>::infinity();
-  Eigen::Vector3d mid = Eigen::Vector3d::Zero();
+  if (a.empty() || b.empty()) return Eigen::Vector3d::Zero();
+  float best = std::numeric_limits<float>::infinity();
+  const Eigen::Vector3f* best_a = a.data();
+  const Eigen::Vector3f* best_b = b.data();
   for (const auto& va : a)
-    for (const auto& vb : b) {
-      const double d2 = (va - vb).squaredNorm();
-      if (d2 < best) {
-        best = d2;
-        mid = 0.5 * (va + vb).cast<double>();
-      }
-    }
-  return mid;
+    for (const auto& vb : b)
+      if (const float d2 = (va - vb).squaredNorm(); d2 < best) best = d2, best_a = &va, best_b = &vb;
+  return 0.5 * (*best_a + *best_b).cast<double>();  // the first closest pair
 }
 
 }  // namespace
