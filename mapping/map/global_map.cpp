@@ -510,7 +510,16 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
     FootprintRaster raster;              ///< k on S's footprint grid
   };
   std::vector<Reobserved> reobserved(fresh.size());
-  std::vector<std::uint32_t> tried, ranged;  // the search's surfaces for one new cell (storage reused)
+  /// A surface the search found in range of the new cell (or much less precise than it), none of
+  /// its cells within the gap yet: its precision test, and its label state when the map's labels
+  /// had none (made for the range test, kept for the CRF should the surface be taken).
+  struct Ranged {
+    std::uint32_t surface = kNoSurface;
+    bool imprecise = false;
+    std::optional<LabelState> made;
+  };
+  std::vector<std::uint32_t> tried;  // the search's surfaces done with, for one new cell (storage reused)
+  std::vector<Ranged> ranged;        // its surfaces in range (storage reused)
   /// within[i]: whether new cell k lies within the gap of its candidate ids[i] (polygons_within_m),
   /// −1 untested: the search's tests, reused by the neighbour search (storage reused).
   std::vector<std::int8_t> within;
@@ -532,40 +541,40 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
           std::find(tried.begin(), tried.end(), surface_id) != tried.end())
         continue;
       const Surface& surface = *met.surface;
-      // Known only from much less precise views: the regular path (k may replace its cells).
-      const bool imprecise = effective_sigma_m(surface.information, surface.observed_area_m2) >
-                             config_.redundant_precision_ratio *
-                                 std::max<double>(cell.depth_sigma_m, config_.residual_scale_m);
-      if (std::find(ranged.begin(), ranged.end(), surface_id) == ranged.end()) {
+      auto seen = std::find_if(ranged.begin(), ranged.end(), [&](const Ranged& r) { return r.surface == surface_id; });
+      if (seen == ranged.end()) {
         if (!surface.detail || surface.detail->footprint.empty()) {  // dormant: the regular path
           tried.push_back(surface_id);
           continue;
         }
-        if (!imprecise) {
+        // Known only from much less precise views: the regular path (k may replace its cells).
+        Ranged r{surface_id, effective_sigma_m(surface.information, surface.observed_area_m2) >
+                                 config_.redundant_precision_ratio *
+                                     std::max<double>(cell.depth_sigma_m, config_.residual_scale_m),
+                 std::nullopt};
+        if (!r.imprecise) {
           const auto state_it = labels.find(surface_id);
-          const bool in_range =
-              merger_
-                  .evaluate_range(units[k], labels.at(units[k].label), units[k],
-                                  state_it != labels.end() ? state_it->second : state_of_surface(surface))
-                  .in_range;
-          if (!in_range) {
+          const LabelState& state =
+              state_it != labels.end() ? state_it->second : r.made.emplace(state_of_surface(surface));
+          if (!merger_.evaluate_range(units[k], labels.at(units[k].label), units[k], state).in_range) {
             tried.push_back(surface_id);
             continue;
           }
         }
-        ranged.push_back(surface_id);
+        ranged.push_back(std::move(r));
+        seen = ranged.end() - 1;
       }
       within[i] = polygons_within_m(cell.plane, cell.vertices_m, fresh_box[k], met.cell->plane,
                                     met.polygon(), met.box, gap);
       if (!within[i]) continue;
-      if (imprecise) return false;
+      if (seen->imprecise) return false;
       tried.push_back(surface_id);
       const SurfaceDetail& detail = *surface.detail;
       FootprintRaster raster =
           detail.footprint.rasterise(project_to_basis(cell.vertices_m, detail.basis));
       if (!(detail.footprint.new_area_m2(raster) < config_.fuse_new_area_fraction * fresh_area[k]))
         continue;
-      if (!labels.contains(surface_id)) labels.emplace(surface_id, state_of_surface(surface));  // for the CRF
+      if (seen->made) labels.emplace(surface_id, std::move(*seen->made));  // S's label state, for the CRF
       reobserved[k] = {id, surface_id, std::move(raster)};
       return true;
     }

@@ -62,6 +62,23 @@ TEST(NormalDepthSigma, RangeNoiseAndPlaneWeightsFoldSeparately) {
   EXPECT_NEAR(surface.range_sigma_m(), std::sqrt(4.0 / (3.0 / (0.2 * 0.2) + 1.0 / (0.1 * 0.1))), 1e-6);
 }
 
+/// The label pairs of every 4-connected pixel pair with two different non-negative labels,
+/// counted one pixel pair at a time (std::map, sorted by (a, b)): label_adjacency's answer.
+std::vector<LabelEdge> adjacency_by_hand(const cv::Mat& labels) {
+  std::map<std::pair<int, int>, std::uint32_t> expected;
+  for (int r = 0; r < labels.rows; ++r)
+    for (int c = 0; c < labels.cols; ++c)
+      for (const auto& [dr, dc] : {std::pair{0, 1}, std::pair{1, 0}}) {
+        if (r + dr >= labels.rows || c + dc >= labels.cols) continue;
+        const int p = labels.at<int>(r, c), q = labels.at<int>(r + dr, c + dc);
+        if (p != q && p >= 0 && q >= 0) ++expected[{std::min(p, q), std::max(p, q)}];
+      }
+  std::vector<LabelEdge> by_hand;
+  for (const auto& [pair, n] : expected)
+    by_hand.push_back({static_cast<std::uint32_t>(pair.first), static_cast<std::uint32_t>(pair.second), n});
+  return by_hand;
+}
+
 TEST(LabelAdjacency, CountsSharedBoundaryPixelPairs) {
   // 0 0 1 1
   // 0 0 1 1
@@ -93,18 +110,8 @@ TEST(LabelAdjacency, DenseAndSparseLabelValuesCountTheSamePairs) {
     labels(cv::Rect(c, r, 1 + static_cast<int>(rng() % 20), 1 + static_cast<int>(rng() % 15)) &
            cv::Rect(0, 0, 80, 60)) = label;
   }
-  std::map<std::pair<int, int>, std::uint32_t> expected;
-  for (int r = 0; r < labels.rows; ++r)
-    for (int c = 0; c < labels.cols; ++c)
-      for (const auto& [dr, dc] : {std::pair{0, 1}, std::pair{1, 0}}) {
-        if (r + dr >= labels.rows || c + dc >= labels.cols) continue;
-        const int p = labels.at<int>(r, c), q = labels.at<int>(r + dr, c + dc);
-        if (p != q && p >= 0 && q >= 0) ++expected[{std::min(p, q), std::max(p, q)}];
-      }
-  ASSERT_GT(expected.size(), 30u);
-  std::vector<LabelEdge> by_hand;
-  for (const auto& [pair, n] : expected)
-    by_hand.push_back({static_cast<std::uint32_t>(pair.first), static_cast<std::uint32_t>(pair.second), n});
+  const std::vector<LabelEdge> by_hand = adjacency_by_hand(labels);
+  ASSERT_GT(by_hand.size(), 30u);
   EXPECT_EQ(label_adjacency(labels), by_hand);
   auto spread = [](int label) { return label < 0 ? label : 50'000'000 * label + 123; };
   cv::Mat sparse = labels.clone();
@@ -127,18 +134,7 @@ TEST(LabelAdjacency, EveryWidthCountsThePairsOfEveryColumn) {
     for (int k = 0; k < 4; ++k)
       labels.at<int>(static_cast<int>(rng() % 9), static_cast<int>(rng() % static_cast<unsigned>(cols))) =
           static_cast<int>(rng() % 7) - 1;
-    std::map<std::pair<int, int>, std::uint32_t> expected;
-    for (int r = 0; r < labels.rows; ++r)
-      for (int c = 0; c < labels.cols; ++c)
-        for (const auto& [dr, dc] : {std::pair{0, 1}, std::pair{1, 0}}) {
-          if (r + dr >= labels.rows || c + dc >= labels.cols) continue;
-          const int p = labels.at<int>(r, c), q = labels.at<int>(r + dr, c + dc);
-          if (p != q && p >= 0 && q >= 0) ++expected[{std::min(p, q), std::max(p, q)}];
-        }
-    std::vector<LabelEdge> by_hand;
-    for (const auto& [pair, n] : expected)
-      by_hand.push_back({static_cast<std::uint32_t>(pair.first), static_cast<std::uint32_t>(pair.second), n});
-    EXPECT_EQ(label_adjacency(labels), by_hand) << cols << " columns";
+    EXPECT_EQ(label_adjacency(labels), adjacency_by_hand(labels)) << cols << " columns";
   }
 }
 
