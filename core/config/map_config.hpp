@@ -106,6 +106,19 @@ struct MapConfig {
   double bridge_long_max_angle_deg = 3.0;
   double bridge_long_max_step_m = 0.04;
   double bridge_long_min_colour = 0.75;
+  /// Ground surfaces across long gaps (m; 0 = off). A row of parked cars hides 20–40 m of a
+  /// sidewalk from every view, and by the time the far piece is seen the near one has gone
+  /// dormant, out of the long bridge's reach from the frame's cells. So a large mature ground
+  /// surface (normal within max_ground_tilt_deg of `up`) going dormant joins another within this
+  /// distance (between their nearest stored cells) under the long bridge's tests of one plane:
+  /// both at least bridge_long_min_area_m2, normals within bridge_long_max_angle_deg, the step
+  /// between their planes at the two cells' midpoint at most bridge_long_max_step_m, colours at
+  /// least bridge_long_min_colour, and nothing else mapped within 0.2 m of the straight path
+  /// between the two cells on the plane (a road 15 cm below the two sidewalks either side of it,
+  /// a curb, a pole). Only ground surfaces: two coplanar facades tens of metres apart are as often
+  /// two buildings as one behind an occluder, while the ground is one surface unless something
+  /// lies between. docs/PERFORMANCE.md, "Ground surfaces joined across long gaps".
+  double ground_join_gap_m = 40.0;
   // --- fusion and index -----------------------------------------------------------------------
   /// Re-observations are found before the neighbour search: a new cell within neighbour_gap_m
   /// of a stored cell whose surface is live, in the CRF's variation range of it, and adding less
@@ -272,6 +285,7 @@ void visit_fields(MapConfig& c, Visitor&& visit) {
   visit("bridge_long_max_angle_deg", c.bridge_long_max_angle_deg);
   visit("bridge_long_max_step_m", c.bridge_long_max_step_m);
   visit("bridge_long_min_colour", c.bridge_long_min_colour);
+  visit("ground_join_gap_m", c.ground_join_gap_m);
   visit("prefuse_reobservations", c.prefuse_reobservations);
   visit("fuse_new_area_fraction", c.fuse_new_area_fraction);
   visit("redundant_coverage", c.redundant_coverage);

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <map>
 #include <set>
 #include <string>
@@ -243,6 +244,9 @@ GlobalMap::GlobalMap(const MapConfig& config)
   if (!(config.bridge_max_cell_distance_m >= 0.0) || !std::isfinite(config.bridge_max_cell_distance_m))
     throw ConfigError("map.bridge_max_cell_distance_m: must be a finite distance >= 0 (0 = off), got " +
                       std::to_string(config.bridge_max_cell_distance_m));
+  if (!(config.ground_join_gap_m >= 0.0) || !std::isfinite(config.ground_join_gap_m))
+    throw ConfigError("map.ground_join_gap_m: must be finite and >= 0 (0 = off), got " +
+                      std::to_string(config.ground_join_gap_m));
   if (!(config.bridge_min_area_m2 >= 0.0))
     throw ConfigError("map.bridge_min_area_m2: must be >= 0 (0 = any), got " +
                       std::to_string(config.bridge_min_area_m2));
@@ -1169,6 +1173,82 @@ bool GlobalMap::join_neighbour(Surface& surface, std::set<std::uint32_t>& touche
   return true;
 }
 
+bool GlobalMap::join_ground_across_gap(Surface& surface, std::set<std::uint32_t>& touched, MergeReport& report) {
+  const double gap = config_.ground_join_gap_m;
+  const auto mature = static_cast<std::uint32_t>(std::max(config_.mature_cells, 1));
+  const double min_area = config_.bridge_long_min_area_m2;
+  const double ground_cos = std::cos(config_.max_ground_tilt_deg * M_PI / 180.0);
+  const double pair_cos = std::cos(config_.bridge_long_max_angle_deg * M_PI / 180.0);
+  const auto large_ground = [&](const Surface& s) {
+    return s.observations >= mature && s.area_m2 >= min_area && std::abs(s.plane.normal().dot(up_)) >= ground_cos;
+  };
+  if (!(gap > 0.0) || !large_ground(surface)) return false;
+  // Per other large ground surface of a nearly parallel plane with stored cells within the gap
+  // of this one's bounds: the nearest pair of cell centroids (this one's, the other's).
+  struct Nearest {
+    double distance_m = std::numeric_limits<double>::infinity();
+    Eigen::Vector3d a, b;
+  };
+  std::vector<Eigen::Vector3d> own;
+  for (std::uint32_t cell_id : surface.cells) own.push_back(vertex_centroid(cells_.at(cell_id).vertices_m.vertices()));
+  std::vector<std::uint32_t> nearby;
+  index_.candidates(Aabb(surface.bounds).inflated(gap), nearby);
+  std::map<std::uint32_t, Nearest> nearest;  // by id: the candidates are tried in a fixed order
+  CheckedSurfaces rejected;
+  for (std::uint32_t cell_id : nearby) {
+    const MapCell& old = cells_.at(cell_id);
+    if (old.surface == surface.id || rejected.contains(old.surface)) continue;
+    const Surface& other = surfaces_.at(old.surface);
+    if (!large_ground(other) || std::abs(other.plane.normal().dot(surface.plane.normal())) < pair_cos) {
+      rejected.insert(old.surface);
+      continue;
+    }
+    const Eigen::Vector3d b = vertex_centroid(old.vertices_m.vertices());
+    Nearest& n = nearest[old.surface];
+    for (const Eigen::Vector3d& a : own)
+      if (const double d = (a - b).norm(); d < n.distance_m) n = {d, a, b};
+  }
+  const Plane3 self_plane = surface.plane;
+  /// Does a surface other than the pair's lie off self's plane within 0.2 m of q? Fragments
+  /// (below fragment_join_max_area_m2) do not count: pieces of the ground seen between the
+  /// occluders, fitted from afar, lie 5–10 cm or tens of degrees off it.
+  const auto off_plane_near = [&](const Eigen::Vector3d& q, std::uint32_t other_id) {
+    const auto hit = nearest_cell(q, 0.2);
+    if (!hit) return false;
+    const std::uint32_t s = cells_.at(hit->cell_id).surface;
+    if (s == surface.id || s == other_id) return false;
+    const Surface& third = surfaces_.at(s);
+    if (third.area_m2 < config_.fragment_join_max_area_m2) return false;
+    const Plane3 plane = third.plane;
+    return std::abs(plane.normal.dot(self_plane.normal)) < pair_cos ||
+           std::abs(plane.signed_distance(q)) > config_.bridge_long_max_step_m;
+  };
+  for (const auto& [other_id, n] : nearest) {
+    if (n.distance_m > gap) continue;
+    // One plane: the step between the two planes at the cells' midpoint m (m moved onto self's).
+    const Plane3 other_plane = surfaces_.at(other_id).plane;
+    const Eigen::Vector3d m = 0.5 * (n.a + n.b);
+    if (std::abs(other_plane.signed_distance(m - self_plane.signed_distance(m) * self_plane.normal)) >
+        config_.bridge_long_max_step_m)
+      continue;
+    // Nothing off the plane on the straight path between the two cells, on self's plane.
+    const Eigen::Vector3d pa = n.a - self_plane.signed_distance(n.a) * self_plane.normal;
+    const Eigen::Vector3d pb = n.b - self_plane.signed_distance(n.b) * self_plane.normal;
+    const double length = (pb - pa).norm();
+    bool blocked = false;
+    for (double t = 0.0; t <= length && !blocked; t += 0.5)
+      blocked = off_plane_near(pa + (pb - pa) * (t / std::max(length, 1e-9)), other_id);
+    if (blocked) continue;
+    Surface& other = surfaces_.at(other_id);
+    LabelState self_state = state_of_surface(surface);
+    if (colour_similarity(self_state.histogram, expand(other.histogram)) < config_.bridge_long_min_colour) continue;
+    wake(other);  // `surface` is live (it was going dormant); the other's state is taken awake
+    merge_surfaces(surface.id, std::move(self_state), other_id, state_of_surface(other), touched, report);
+    return true;
+  }
+  return false;
+}
+
 MapBytes GlobalMap::map_bytes_by_part() const {
   MapBytes bytes;
   bytes.cells = hash_map_bytes(cells_);
@@ -1490,6 +1570,11 @@ void GlobalMap::retire_quiet_surfaces(std::uint64_t frame_id, std::set<std::uint
     if (join_neighbour(surface, touched, report)) {
       // The merged surface is live, observed now. When this one absorbed its neighbour, its own
       // clock entry was the one just taken (the neighbour's is gone with it): back on the clock.
+      if (const auto merged = surfaces_.find(id); merged != surfaces_.end())
+        dormancy_clock_.emplace(merged->second.last_observed_frame, id);
+      continue;
+    }
+    if (join_ground_across_gap(surface, touched, report)) {  // as join_neighbour
       if (const auto merged = surfaces_.find(id); merged != surfaces_.end())
         dormancy_clock_.emplace(merged->second.last_observed_frame, id);
       continue;

@@ -376,6 +376,10 @@ class GlobalMap {
   /// min_colour_similarity, or RMS ≤ fragment_join_sigma_factor · σ̄_Z of its stored cells with
   /// colour ≥ fragment_join_noise_colour); true when it did (`surface` may be gone).
   bool join_neighbour(Surface& surface, std::set<std::uint32_t>& touched, MergeReport& report);
+  /// MapConfig::ground_join_gap_m: `surface`, a large mature ground surface going dormant, joins
+  /// another one on its plane across a gap nothing is mapped in (see the config); true when it
+  /// did (`surface` may be gone).
+  bool join_ground_across_gap(Surface& surface, std::set<std::uint32_t>& touched, MergeReport& report);
   /// MapConfig::fragment_max_area_m2: `surface` holds one stored cell of footprint area below
   /// it, whose centroid and vertices all lie within fragment_redundant_m of other surfaces' cells.
   bool redundant_fragment(const Surface& surface) const;

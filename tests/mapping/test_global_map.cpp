@@ -1164,6 +1164,89 @@ TEST(Bridge, NoLongBridgeWhenOffSeenOpenlyFilledSteppedOrOfAnotherColour) {
   EXPECT_THROW(GlobalMap{bad}, ConfigError);
 }
 
+/// Ground across a long gap: two 6 m × 4 m floor patches at y = 1.5 (x ∈ [−3, 3]; up is −y),
+/// z ∈ [8, 12] seen in frames 0 and 1, z ∈ [37, 41] in frames 1 and 2: 25 m apart, beyond the
+/// long bridge (15 m), nothing in front of the gap. Both go quiet after frame 2, and at frame 13
+/// (dormant_after_frames 10) the first one due, going dormant, meets the other. Optionally the gap
+/// holds a road strip 15 cm below the floor (y = 1.65, z ∈ [14, 35], large), or a small floor
+/// fragment 8 cm off it (2 m × 2 m at z ∈ [24, 26]); the second patch may be raised, or both
+/// patches stood up as walls (z = 8 and z = 37 swapped for x = 8, the same 25 m apart).
+struct GroundGapCase {
+  MapConfig config = [] {
+    MapConfig c;
+    c.max_range_m = 100.0;
+    c.max_depth_sigma_m = 0.0;
+    return c;
+  }();
+  bool road_in_gap = false;
+  bool fragment_in_gap = false;
+  float raise_m = 0.0f;
+  bool walls = false;
+  std::vector<MergeReport> reports;
+  std::size_t run() {
+    GlobalMap map(config);
+    std::vector<Planecell> first, second, extra;
+    if (walls) {
+      test::tile(first, {8, -2.5f, 8}, kZ, kY, 6, 4, 1, 0, 0);
+      test::tile(second, {8 - raise_m, -2.5f, 37}, kZ, kY, 6, 4, 1, 0, 0);
+    } else {
+      test::tile(first, {-3, 1.5f, 8}, kX, kZ, 6, 4, 1, 0, 0);
+      test::tile(second, {-3, 1.5f - raise_m, 37}, kX, kZ, 6, 4, 1, 0, 0);
+    }
+    if (road_in_gap) test::tile(extra, {-3, 1.65f, 14}, kX, kZ, 6, 21, 1, 0, 9);
+    if (fragment_in_gap) test::tile(extra, {-1, 1.58f, 24}, kX, kZ, 2, 2, 1, 0, 0);
+    const auto frame = [](std::initializer_list<const std::vector<Planecell>*> parts) {
+      std::vector<Planecell> cells;
+      for (const auto* part : parts) cells.insert(cells.end(), part->begin(), part->end());
+      for (std::size_t i = 0; i < cells.size(); ++i) cells[i].id = static_cast<std::uint32_t>(i);
+      return cells;
+    };
+    reports = {map.integrate(0, Pose::Identity(), frame({&first, &extra})),
+               map.integrate(1, Pose::Identity(), frame({&first, &second, &extra})),
+               map.integrate(2, Pose::Identity(), frame({&second})),
+               map.integrate(13, Pose::Identity(), {})};
+    return map.surfaces().size();
+  }
+};
+
+TEST(GroundJoin, LargeGroundSurfacesOfOnePlaneJoinAcrossALongGapWhenOneGoesDormant) {
+  GroundGapCase c;
+  ASSERT_EQ(c.config.ground_join_gap_m, 40.0);  // on by default
+  ASSERT_EQ(c.config.bridge_long_gap_m, 15.0);
+  EXPECT_EQ(c.run(), 1u);
+  for (std::size_t f = 0; f < 3; ++f) EXPECT_TRUE(c.reports[f].surface_merges.empty()) << "frame " << f;
+  const std::uint32_t near = c.reports[0].cell_surfaces[0], far = c.reports[2].cell_surfaces[0];
+  ASSERT_NE(near, far);
+  // The older surface (the near patch) absorbs the far one, at frame 13.
+  EXPECT_EQ(c.reports[3].surface_merges, (std::vector<SurfaceMerge>{{13, far, near}}));
+  GroundGapCase fragment;  // a 4 m² piece of the floor 8 cm off it, seen between occluders
+  fragment.fragment_in_gap = true;
+  EXPECT_EQ(fragment.run(), 2u);  // the floor and the fragment
+  EXPECT_EQ(fragment.reports[3].surface_merges.size(), 1u);
+}
+
+TEST(GroundJoin, NoJoinWhenOffTooFarARoadLiesBetweenSteppedOrNotGround) {
+  GroundGapCase off;
+  off.config.ground_join_gap_m = 0.0;
+  EXPECT_EQ(off.run(), 2u);
+  GroundGapCase near_reach;  // 25 m between the patches' edges, more between their cells' centres
+  near_reach.config.ground_join_gap_m = 20.0;
+  EXPECT_EQ(near_reach.run(), 2u);
+  GroundGapCase road;  // two sidewalks with a road between them, 15 cm below
+  road.road_in_gap = true;
+  EXPECT_EQ(road.run(), 3u);
+  GroundGapCase stepped;  // 10 cm higher: not one plane (bridge_long_max_step_m 4 cm)
+  stepped.raise_m = 0.10f;
+  EXPECT_EQ(stepped.run(), 2u);
+  GroundGapCase walls;  // coplanar walls 25 m apart: as often two buildings as one
+  walls.walls = true;
+  EXPECT_EQ(walls.run(), 2u);
+  for (const auto* c : {&off, &near_reach, &road, &stepped, &walls}) EXPECT_TRUE(c->reports[3].surface_merges.empty());
+  MapConfig bad;
+  bad.ground_join_gap_m = -1.0;
+  EXPECT_CONTAINS(test::error_of<ConfigError>([&] { GlobalMap{bad}; }), "map.ground_join_gap_m");
+}
+
 TEST(Bridge, NegativeGapOrAreaIsAConfigError) {
   MapConfig config;
   config.bridge_gap_m = -1.0;
