@@ -1084,18 +1084,22 @@ TEST(Bridge, NoMergeWhenACellLiesOffTheOtherPlaneThoughThePlanesMeetInTheGap) {
   EXPECT_CONTAINS(test::error_of<ConfigError>([&] { flat.run(); }), "map.bridge_max_cell_distance_m");
 }
 
+/// The defaults, with cells mapped out to 100 m whatever their depth noise (the long-gap cases
+/// lie 10–40 m from the camera).
+MapConfig far_reach_config() {
+  MapConfig c;
+  c.max_range_m = 100.0;
+  c.max_depth_sigma_m = 0.0;
+  return c;
+}
+
 /// A long bridge: two 6 m × 4 m floor patches at y = 1.5 (x ∈ [−3, 3]), z ∈ [8, 12] in frame 0
 /// and z ∈ [22, 26] in frame 1, 10 m apart (beyond the 5 m bridge, within the 15 m one). Frame 0
 /// optionally holds an occluder between the camera and the gap (a 4 m × 0.7 m board at z = 5,
 /// y ∈ [0.2, 0.9], which every camera ray to the gap crosses) and a road strip in the gap, 15 cm
 /// below the floor (y = 1.65, z ∈ [13, 21]); the second patch may be raised or of another colour.
 struct LongBridgeCase {
-  MapConfig config = [] {
-    MapConfig c;
-    c.max_range_m = 100.0;
-    c.max_depth_sigma_m = 0.0;
-    return c;
-  }();
+  MapConfig config = far_reach_config();
   bool occluder = true;
   bool road_in_gap = false;
   float first_from_z = 8.0f;  ///< where the first patch begins (it ends at z = 12)
@@ -1172,12 +1176,7 @@ TEST(Bridge, NoLongBridgeWhenOffSeenOpenlyFilledSteppedOrOfAnotherColour) {
 /// fragment 8 cm off it (2 m × 2 m at z ∈ [24, 26]); the second patch may be raised, or both
 /// patches stood up as walls (z = 8 and z = 37 swapped for x = 8, the same 25 m apart).
 struct GroundGapCase {
-  MapConfig config = [] {
-    MapConfig c;
-    c.max_range_m = 100.0;
-    c.max_depth_sigma_m = 0.0;
-    return c;
-  }();
+  MapConfig config = far_reach_config();
   bool road_in_gap = false;
   bool fragment_in_gap = false;
   float raise_m = 0.0f;
