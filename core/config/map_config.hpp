@@ -113,9 +113,11 @@ struct MapConfig {
   /// distance (between their nearest stored cells) under the long bridge's tests of one plane:
   /// both at least bridge_long_min_area_m2, normals within bridge_long_max_angle_deg, the step
   /// between their planes at the two cells' midpoint at most bridge_long_max_step_m, colours at
-  /// least bridge_long_min_colour, and nothing else mapped within 0.2 m of the straight path
-  /// between the two cells on the plane (a road 15 cm below the two sidewalks either side of it,
-  /// a curb, a pole). Only ground surfaces: two coplanar facades tens of metres apart are as often
+  /// least bridge_long_min_colour, and no other surface off the plane within 0.2 m of the straight
+  /// path between the two cells on the plane (a road 15 cm below the two sidewalks either side of
+  /// it, a curb); surfaces below fragment_join_max_area_m2 do not count (pieces of the ground seen
+  /// between the occluders from afar, fitted 5–10 cm or tens of degrees off). Only ground
+  /// surfaces: two coplanar facades tens of metres apart are as often
   /// two buildings as one behind an occluder, while the ground is one surface unless something
   /// lies between. docs/PERFORMANCE.md, "Ground surfaces joined across long gaps".
   double ground_join_gap_m = 40.0;
