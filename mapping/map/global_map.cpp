@@ -153,6 +153,24 @@ struct Coverage {
 /// - the share can no longer reach min_fraction: `fraction` < min_fraction, `surface` unset;
 /// - the share has reached it and no other surface can catch up with the leading one on the
 ///   points left: `fraction` (≥ min_fraction so far) and `surface` as the full test would give.
+/// The step between two planes at m, one plane's point there: |n_b·m' + e_b| with m' = m − (n_a·m + e_a)·n_a
+/// (m moved onto plane a). Two surfaces are of one plane where it is small.
+double step_at(const Plane3& a, const Plane3& b, const Eigen::Vector3d& m) {
+  return std::abs(b.signed_distance(m - a.signed_distance(m) * a.normal));
+}
+
+/// Whether `hit` holds at some point of the straight path from p to q, both moved onto `plane`,
+/// sampled every 0.5 m from p (p included).
+template <class Hit>
+bool any_on_path(const Plane3& plane, const Eigen::Vector3d& p, const Eigen::Vector3d& q, Hit&& hit) {
+  const Eigen::Vector3d pa = p - plane.signed_distance(p) * plane.normal;
+  const Eigen::Vector3d pb = q - plane.signed_distance(q) * plane.normal;
+  const double length = (pb - pa).norm();
+  for (double t = 0.0; t <= length; t += 0.5)
+    if (hit(Eigen::Vector3d(pa + (pb - pa) * (t / std::max(length, 1e-9))))) return true;
+  return false;
+}
+
 Coverage coverage_of(const CoverageGrid& grid, std::span<const MapCell* const> cells,
                      std::span<const Surface* const> surfaces, double min_fraction) {
   if (grid.points.empty()) return {};
@@ -1052,9 +1070,7 @@ std::uint32_t GlobalMap::bridge_long(std::uint32_t id, std::span<const Planecell
     const Plane3 self_plane = self.plane, other_plane = other.plane;
     const Eigen::Vector3d a = vertex_centroid(cell.vertices_m), b = vertex_centroid(old_vertices);
     const Eigen::Vector3d m = 0.5 * (a + b);
-    if (std::abs(other_plane.signed_distance(m - self_plane.signed_distance(m) * self_plane.normal)) >
-        config_.bridge_long_max_step_m)
-      return self_id;
+    if (step_at(self_plane, other_plane, m) > config_.bridge_long_max_step_m) return self_id;
     // Hidden behind an occluder: a third surface near the camera ray in front of m, none behind.
     const Eigen::Vector3d to_m = m - camera_centre;
     const double range = to_m.norm();
@@ -1064,11 +1080,8 @@ std::uint32_t GlobalMap::bridge_long(std::uint32_t id, std::span<const Planecell
       occluded = third_surface_near(camera_centre + t * ray, self_id, other_id);
     if (!occluded || seen_through(m, camera_centre, self_id, other_id)) return self_id;
     // Unmapped: nothing else on the straight path between the two cells, on self's plane.
-    const Eigen::Vector3d pa = a - self_plane.signed_distance(a) * self_plane.normal;
-    const Eigen::Vector3d pb = b - self_plane.signed_distance(b) * self_plane.normal;
-    const double length = (pb - pa).norm();
-    for (double t = 0.0; t <= length; t += 0.5)
-      if (third_surface_near(pa + (pb - pa) * (t / std::max(length, 1e-9)), self_id, other_id)) return self_id;
+    if (any_on_path(self_plane, a, b, [&](const Eigen::Vector3d& q) { return third_surface_near(q, self_id, other_id); }))
+      return self_id;
     LabelState sa = state_of_surface(self), sb = state_of_surface(other);  // asleep too (above)
     if (colour_similarity(sa.histogram, sb.histogram) < config_.bridge_long_min_colour) return self_id;
     return merge_surfaces(self_id, std::move(sa), other_id, std::move(sb), touched, report);
@@ -1226,19 +1239,10 @@ bool GlobalMap::join_ground_across_gap(Surface& surface, std::set<std::uint32_t>
   for (const auto& [other_id, n] : nearest) {
     if (n.distance_m > gap) continue;
     // One plane: the step between the two planes at the cells' midpoint m (m moved onto self's).
-    const Plane3 other_plane = surfaces_.at(other_id).plane;
-    const Eigen::Vector3d m = 0.5 * (n.a + n.b);
-    if (std::abs(other_plane.signed_distance(m - self_plane.signed_distance(m) * self_plane.normal)) >
-        config_.bridge_long_max_step_m)
-      continue;
+    if (step_at(self_plane, surfaces_.at(other_id).plane, 0.5 * (n.a + n.b)) > config_.bridge_long_max_step_m) continue;
     // Nothing off the plane on the straight path between the two cells, on self's plane.
-    const Eigen::Vector3d pa = n.a - self_plane.signed_distance(n.a) * self_plane.normal;
-    const Eigen::Vector3d pb = n.b - self_plane.signed_distance(n.b) * self_plane.normal;
-    const double length = (pb - pa).norm();
-    bool blocked = false;
-    for (double t = 0.0; t <= length && !blocked; t += 0.5)
-      blocked = off_plane_near(pa + (pb - pa) * (t / std::max(length, 1e-9)), other_id);
-    if (blocked) continue;
+    if (any_on_path(self_plane, n.a, n.b, [&](const Eigen::Vector3d& q) { return off_plane_near(q, other_id); }))
+      continue;
     Surface& other = surfaces_.at(other_id);
     LabelState self_state = state_of_surface(surface);
     if (colour_similarity(self_state.histogram, expand(other.histogram)) < config_.bridge_long_min_colour) continue;
