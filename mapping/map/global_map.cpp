@@ -1236,7 +1236,8 @@ bool GlobalMap::join_ground_across_gap(Surface& surface, std::set<std::uint32_t>
     return std::abs(plane.normal.dot(self_plane.normal)) < pair_cos ||
            std::abs(plane.signed_distance(q)) > config_.bridge_long_max_step_m;
   };
-  for (const auto& [other_id, n] : nearest) {
+  for (const auto& [id, n] : nearest) {
+    const std::uint32_t other_id = id;  // a lambda below captures it (clang 14: not a binding)
     if (n.distance_m > gap) continue;
     // One plane: the step between the two planes at the cells' midpoint m (m moved onto self's).
     if (step_at(self_plane, surfaces_.at(other_id).plane, 0.5 * (n.a + n.b)) > config_.bridge_long_max_step_m) continue;
