@@ -150,6 +150,13 @@ struct MapConfig {
   /// of the surface's plane, the normals within the same angle, and the surface is not much less
   /// precise (σ_eff ≤ redundant_precision_ratio·max(σ_new, residual_scale_m)).
   double redundant_coverage = 0.75;
+  /// σ_new above is the new cell's noise along its plane normal, σ_n = σ_Z·|n·r̂|
+  /// (map::normal_depth_sigma_m), as in the CRF's range (normal_depth_noise), instead of σ_Z: a
+  /// far sidewalk cell seen at a grazing angle has its plane's offset known to σ_Z/6 at 10 m, the
+  /// 15 cm step to the road is resolved, and 2σ_Z (0.3–0.6 m) fused it into the road
+  /// (docs/PERFORMANCE.md, "Coverage within the noise along the normal"). Stored cells keep σ_Z
+  /// (their viewing ray is not stored), and the stored-cell route keeps its neighbour_gap_m floor.
+  bool coverage_normal_noise = true;
   double redundant_normal_angle_deg = 30.0;
   double redundant_sigma_factor = 2.0;
   double redundant_max_distance_m = 1.0;
@@ -291,6 +298,7 @@ void visit_fields(MapConfig& c, Visitor&& visit) {
   visit("prefuse_reobservations", c.prefuse_reobservations);
   visit("fuse_new_area_fraction", c.fuse_new_area_fraction);
   visit("redundant_coverage", c.redundant_coverage);
+  visit("coverage_normal_noise", c.coverage_normal_noise);
   visit("redundant_normal_angle_deg", c.redundant_normal_angle_deg);
   visit("redundant_sigma_factor", c.redundant_sigma_factor);
   visit("redundant_max_distance_m", c.redundant_max_distance_m);

@@ -411,13 +411,19 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
 
   std::vector<MergeUnit> units;
   std::unordered_map<std::uint32_t, LabelState> labels;
+  /// Each new cell's depth noise as coverage counts it (MapConfig::coverage_normal_noise).
+  std::vector<double> coverage_sigma(fresh.size());
   for (std::size_t k = 0; k < fresh.size(); ++k) {
     const auto label = next_surface_id_ + static_cast<std::uint32_t>(k);
     units.push_back({label, fresh[k]->plane, fresh[k]->vertices_m, &fresh[k]->histogram, fresh_area[k]});
     // The range widens by the noise along the normal (MapConfig::normal_depth_noise); the plane
     // fits keep weighting by σ_Z.
-    const double range_sigma = config_.normal_depth_noise ? normal_depth_sigma_m(*fresh[k], camera_centre)
-                                                          : static_cast<double>(fresh[k]->depth_sigma_m);
+    const double sigma_z = static_cast<double>(fresh[k]->depth_sigma_m);
+    const double sigma_n = config_.normal_depth_noise || config_.coverage_normal_noise
+                               ? normal_depth_sigma_m(*fresh[k], camera_centre)
+                               : sigma_z;
+    const double range_sigma = config_.normal_depth_noise ? sigma_n : sigma_z;
+    coverage_sigma[k] = config_.coverage_normal_noise ? sigma_n : sigma_z;
     labels.emplace(label, state_of_cell(*fresh[k], fresh_area[k], range_sigma, config_.residual_scale_m,
                                         config_.normal_sigma_scale));
   }
@@ -487,15 +493,15 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
     bool neighbour = false;
   };
   /// The coverage tolerances of new cell k against a stored cell of depth noise old_sigma_m: the
-  /// noise r·√(σ_new² + σ_old²) (r = redundant_sigma_factor) clamped to [gap, reach] as the
+  /// noise r·√(σ_new² + σ_old²) (r = redundant_sigma_factor; σ_new = coverage_sigma[k], σ_old the
+  /// stored cell's σ_Z) clamped to [gap, reach] as the
   /// distance, and the normal angle base + atan(noise / √area_k), at most 2·base.
   struct Tolerances {
     double angle_deg;
     double tol;
   };
   const auto tolerances_of = [&](std::size_t k, float old_sigma_m) {
-    const double sigma =
-        std::hypot(static_cast<double>(fresh[k]->depth_sigma_m), static_cast<double>(old_sigma_m));
+    const double sigma = std::hypot(coverage_sigma[k], static_cast<double>(old_sigma_m));
     const double noise = config_.redundant_sigma_factor * sigma;
     const double base_deg = config_.redundant_normal_angle_deg;
     const double widened_deg =
@@ -634,7 +640,7 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
     // cell's σ (floored like the surfaces' moments).
     auto& candidates = covering_surfaces[k];
     if (std::find(candidates.begin(), candidates.end(), old.surface) != candidates.end()) return;
-    const double surface_tol = std::clamp(config_.redundant_sigma_factor * cell.depth_sigma_m,
+    const double surface_tol = std::clamp(config_.redundant_sigma_factor * coverage_sigma[k],
                                           config_.residual_scale_m, reach);
     const double max_surface_sigma =
         config_.redundant_precision_ratio *

@@ -156,6 +156,45 @@ TEST(Coverage, SpaceHeldOnlyByAFusedObservationIsNotStoredAgain) {
   EXPECT_EQ(beyond.added_cells.size(), 1u);
 }
 
+/// A kerb seen from afar at a grazing angle (MapConfig::coverage_normal_noise): a road square on
+/// y = 1.65 (1.65 m below the camera) at x ∈ [0, 1], z ∈ [10, 11], its footprint stretched to
+/// x = 1.2 by a fused re-observation; then a 1 m sidewalk cell 15 cm above it (y = 1.5) at
+/// x ∈ [0.35, 1.35], another colour (no CRF merge), σ_Z = 0.3 m. The road's footprint holds 85 % of
+/// it (the stored square 65 %, below redundant_coverage). Its noise along its normal is
+/// σ_n = σ_Z · 1.5 / |X̄| = 0.3 · 1.5 / |(0.85, 1.5, 10.5)| ≈ 4.2 cm, so the surface must pass
+/// within 2σ_n ≈ 8.5 cm: the 15 cm step keeps it out and it is stored. Counted by σ_Z (2σ_Z = 0.6 m)
+/// the road covers it and it is fused into the road.
+TEST(Coverage, AFarKerbCellIsCoveredWithinItsNoiseAlongTheNormal) {
+  for (const bool normal_noise : {true, false}) {
+    SCOPED_TRACE(normal_noise ? "sigma along the normal" : "sigma_Z");
+    MapConfig config;
+    config.coverage_normal_noise = normal_noise;
+    GlobalMap map(config);
+    const auto road_at = [](float x0) { return rect_cell(0, {x0, 1.65f, 10}, kX, kZ, 3); };
+    (void)map.integrate(0, Pose::Identity(), std::vector{road_at(0)});
+    ASSERT_EQ(map.cells().size(), 1u);
+    const std::uint32_t road_surface = map.cells().at(0).surface;
+    ASSERT_EQ(map.integrate(1, Pose::Identity(), std::vector{road_at(0.2f)}).fused_cells, 1u);
+    Planecell kerb = rect_cell(0, {0.35f, 1.5f, 10}, kX, kZ, 30);
+    kerb.depth_sigma_m = 0.3f;
+    const Eigen::Vector3d centroid(0.85, 1.5, 10.5);
+    ASSERT_NEAR(normal_depth_sigma_m(kerb, Eigen::Vector3d::Zero()), 0.3 * 1.5 / centroid.norm(), 1e-6);
+    const auto r = map.integrate(2, Pose::Identity(), std::vector{kerb});
+    ASSERT_EQ(r.cell_surfaces.size(), 1u);
+    if (normal_noise) {
+      EXPECT_EQ(r.redundant_cells, 0u);
+      EXPECT_EQ(r.added_cells.size(), 1u);
+      EXPECT_NE(r.cell_surfaces[0], road_surface);
+      EXPECT_EQ(map.cells().size(), 2u);
+    } else {
+      EXPECT_EQ(r.redundant_cells, 1u);
+      EXPECT_TRUE(r.added_cells.empty());
+      EXPECT_EQ(r.cell_surfaces[0], road_surface);
+      EXPECT_EQ(map.cells().size(), 1u);
+    }
+  }
+}
+
 TEST(Coverage, NearPreciseCellsReplaceAFarNoisyCellTheyCover) {
   MapConfig config;
   GlobalMap map(config);
