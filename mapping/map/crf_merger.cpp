@@ -359,6 +359,7 @@ std::vector<std::pair<std::uint32_t, std::uint32_t>> CrfMerger::merge(
     std::size_t edge;
   };
   std::vector<Candidate> candidates;
+  candidates.reserve(edges.size());
   // The labels in play get dense slots (hash lookups once per unit, not per evaluation): slot s is
   // label label_of[s] with state *state[s], union-find parent parent[s] (a root's label is the
   // smallest of its set, as UnionFind::unite keeps it) and changed_in[s], the last round in which
@@ -366,6 +367,10 @@ std::vector<std::pair<std::uint32_t, std::uint32_t>> CrfMerger::merge(
   std::unordered_map<std::uint32_t, std::uint32_t> slot_of_label;
   std::vector<std::uint32_t> label_of, parent, unit_slot(units.size());
   std::vector<LabelState*> state;
+  slot_of_label.reserve(units.size());
+  label_of.reserve(units.size());
+  parent.reserve(units.size());
+  state.reserve(units.size());
   for (std::size_t u = 0; u < units.size(); ++u) {
     const std::uint32_t label = union_find.find(units[u].label);
     const auto [it, added] = slot_of_label.try_emplace(label, static_cast<std::uint32_t>(label_of.size()));

@@ -1,6 +1,7 @@
 #include "mapping/map/global_map.hpp"
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <limits>
@@ -390,6 +391,7 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
   std::vector<Aabb> fresh_box;  ///< each new cell's bounds, computed once
   report.cell_surfaces.assign(cells_world.size(), kNoSurface);
   std::unordered_map<std::uint32_t, std::uint32_t> unit_of_extraction_id;
+  unit_of_extraction_id.reserve(cells_world.size());
   for (std::size_t i = 0; i < cells_world.size(); ++i) {
     const Planecell& cell = cells_world[i];
     // The cell's own fields first (cheap), then its geometry.
@@ -411,6 +413,7 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
 
   std::vector<MergeUnit> units;
   std::unordered_map<std::uint32_t, LabelState> labels;
+  labels.reserve(2 * fresh.size());  // the new cells' labels and about as many of the map's
   /// Each new cell's depth noise as coverage counts it (MapConfig::coverage_normal_noise).
   std::vector<double> coverage_sigma(fresh.size());
   for (std::size_t k = 0; k < fresh.size(); ++k) {
@@ -551,7 +554,11 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
   /// within[i]: whether new cell k lies within the gap of its candidate ids[i] (polygons_within_m),
   /// −1 untested: the search's tests, reused by the neighbour search (storage reused).
   std::vector<std::int8_t> within;
-  std::vector<MetCell*> met_at;  // met_cells' entry of each candidate of one new cell (storage reused)
+  /// The index's candidates of a bucket range (SpatialIndex::BucketRange: lo, hi, empty), with their
+  /// met_cells entries: candidates(box) depends on the box only through the buckets it touches,
+  /// and neighbouring new cells mostly touch the same ones, so each range is queried once a frame.
+  std::map<std::array<std::int64_t, 7>, std::pair<std::vector<std::uint32_t>, std::vector<MetCell*>>>
+      candidates_of_range;
   const auto find_reobserved = [&](std::size_t k, const Aabb& near_box, std::span<const std::uint32_t> ids,
                                    std::span<MetCell* const> met_at) {
     const Planecell& cell = *fresh[k];
@@ -658,24 +665,28 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
     const Aabb near_box = box.inflated(gap);
     // The index's candidates, filtered by their bounds.
     const Aabb reach_box = box.inflated(reach);
-    index_.candidates(reach_box, nearby);
-    const auto met_of = [&](std::uint32_t id) -> MetCell& {
-      auto [met, first_time] = met_cells.try_emplace(id);
-      if (first_time) {
-        const MapCell& c = cells_.at(id);
-        met->second = {&c, &surfaces_.at(c.surface), bounds_of(c.vertices_m), {}};
+    const SpatialIndex::BucketRange range = index_.bucket_range(reach_box);
+    auto [memo, first_range] = candidates_of_range.try_emplace(
+        {range.lo[0], range.lo[1], range.lo[2], range.hi[0], range.hi[1], range.hi[2], range.empty});
+    auto& [ids, met_at] = memo->second;
+    if (first_range) {
+      index_.candidates(reach_box, ids);
+      // Each candidate's entry, looked up once for the search and the neighbour loop (hash
+      // nodes do not move).
+      for (std::uint32_t id : ids) {
+        auto [met, first_time] = met_cells.try_emplace(id);
+        if (first_time) {
+          const MapCell& c = cells_.at(id);
+          met->second = {&c, &surfaces_.at(c.surface), bounds_of(c.vertices_m), {}};
+        }
+        met_at.push_back(&met->second);
       }
-      return met->second;
-    };
-    // Each candidate's entry, looked up once for the search and the neighbour loop (hash nodes
-    // do not move).
-    met_at.clear();
-    for (std::uint32_t id : nearby) met_at.push_back(&met_of(id));
-    within.assign(nearby.size(), -1);
+    }
+    within.assign(ids.size(), -1);
     const bool prefused =
-        config_.prefuse_reobservations && find_reobserved(k, near_box, nearby, met_at);
-    for (std::size_t i = 0; i < nearby.size(); ++i) {
-      const std::uint32_t id = nearby[i];
+        config_.prefuse_reobservations && find_reobserved(k, near_box, ids, met_at);
+    for (std::size_t i = 0; i < ids.size(); ++i) {
+      const std::uint32_t id = ids[i];
       MetCell& met_cell = *met_at[i];
       const MapCell& old = *met_cell.cell;
       const Aabb& old_box = met_cell.box;
@@ -956,18 +967,41 @@ std::uint32_t GlobalMap::visit_reached_surfaces(std::uint32_t id, std::span<cons
   return id;
 }
 
-bool GlobalMap::third_surface_near(const Eigen::Vector3d& point, std::uint32_t a, std::uint32_t b) const {
-  const auto hit = nearest_cell(point, 0.2);
-  if (!hit) return false;
-  const std::uint32_t s = cells_.at(hit->cell_id).surface;
-  return s != a && s != b;
+bool GlobalMap::third_surface_near(const Eigen::Vector3d& point, std::uint32_t a, std::uint32_t b,
+                                   ProbeCells& probe) const {
+  if (!point.allFinite()) throw InputError("third_surface_near: probe point is not finite");
+  constexpr double kNear = 0.2;
+  Aabb box;
+  box.extend(point);
+  box = box.inflated(kNear);
+  // nearest_cell(point, kNear): the nearest of the cells whose bounds overlap the box (a cell
+  // outside it lies farther than kNear along an axis), the first in id order on a tie.
+  if (const SpatialIndex::BucketRange range = index_.bucket_range(box); probe.range != range) {
+    probe.range = range;
+    probe.cells.clear();
+    index_.candidates(box, probe.ids);
+    for (std::uint32_t id : probe.ids) {
+      const MapCell& c = cells_.at(id);
+      probe.cells.push_back({&c, c.vertices_m.bounds(), {}});
+    }
+  }
+  const MapCell* nearest = nullptr;
+  double nearest_m = kNear;
+  for (ProbeCells::Met& met : probe.cells) {
+    if (!met.box.overlaps(box)) continue;
+    if (met.vertices.empty()) met.cell->vertices_m.vertices_into(met.vertices);
+    const double d = distance_to_polygon(point, met.cell->plane, met.vertices);
+    if (d < nearest_m || (!nearest && d <= nearest_m)) nearest = met.cell, nearest_m = d;
+  }
+  return nearest && nearest->surface != a && nearest->surface != b;
 }
 
 bool GlobalMap::seen_through(const Eigen::Vector3d& m, const Eigen::Vector3d& camera_centre, std::uint32_t a,
                              std::uint32_t b) const {
   const Eigen::Vector3d ray = (m - camera_centre).normalized();
+  ProbeCells probe;
   for (double t = 0.3; t <= 10.0; t += 0.25)
-    if (third_surface_near(m + t * ray, a, b)) return true;
+    if (third_surface_near(m + t * ray, a, b, probe)) return true;
   return false;
 }
 
@@ -1082,11 +1116,13 @@ std::uint32_t GlobalMap::bridge_long(std::uint32_t id, std::span<const Planecell
     const double range = to_m.norm();
     const Eigen::Vector3d ray = to_m / std::max(range, 1e-9);
     bool occluded = false;
+    ProbeCells probe;
     for (double t = 0.5; t <= range - 0.5 && !occluded; t += 0.25)
-      occluded = third_surface_near(camera_centre + t * ray, self_id, other_id);
+      occluded = third_surface_near(camera_centre + t * ray, self_id, other_id, probe);
     if (!occluded || seen_through(m, camera_centre, self_id, other_id)) return self_id;
     // Unmapped: nothing else on the straight path between the two cells, on self's plane.
-    if (any_on_path(self_plane, a, b, [&](const Eigen::Vector3d& q) { return third_surface_near(q, self_id, other_id); }))
+    if (any_on_path(self_plane, a, b,
+                    [&](const Eigen::Vector3d& q) { return third_surface_near(q, self_id, other_id, probe); }))
       return self_id;
     LabelState sa = state_of_surface(self), sb = state_of_surface(other);  // asleep too (above)
     if (colour_similarity(sa.histogram, sb.histogram) < config_.bridge_long_min_colour) return self_id;

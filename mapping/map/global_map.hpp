@@ -326,8 +326,24 @@ class GlobalMap {
                                        std::span<const std::size_t> ks, std::span<const Aabb> boxes,
                                        double gap_m, std::span<const ReachCell* const> candidates,
                                        CheckedSurfaces& checked, Reject&& reject, Visit&& visit);
-  /// Is a stored cell of a surface other than `a` and `b` within 0.2 m of `point`?
-  bool third_surface_near(const Eigen::Vector3d& point, std::uint32_t a, std::uint32_t b) const;
+  /// The stored cells met by a walk of probes (third_surface_near every 0.25–0.5 m along a ray or
+  /// a path): the index's candidates of one bucket range with their bounds, their vertices
+  /// decoded when first needed, kept while the probes' boxes touch the same buckets (consecutive
+  /// probes mostly do). Valid while the map is unchanged: one walk, no merge within it.
+  struct ProbeCells {
+    struct Met {
+      const MapCell* cell = nullptr;
+      Aabb box;
+      std::vector<Eigen::Vector3f> vertices;  ///< empty until decoded (a map polygon has ≥ 3)
+    };
+    std::optional<SpatialIndex::BucketRange> range;  ///< of `cells`; none before the first probe
+    std::vector<Met> cells;                          ///< in id order
+    std::vector<std::uint32_t> ids;                  ///< the index's answer (storage reused)
+  };
+  /// Is the stored cell nearest to `point` within 0.2 m (nearest_cell(point, 0.2)) on a surface
+  /// other than `a` and `b`? `probe`: the walk's cells (ProbeCells).
+  bool third_surface_near(const Eigen::Vector3d& point, std::uint32_t a, std::uint32_t b,
+                          ProbeCells& probe) const;
   /// Does the camera see through the gap at `m` between surfaces `a` and `b`: a third surface
   /// near the camera ray 0.3–10 m behind m?
   bool seen_through(const Eigen::Vector3d& m, const Eigen::Vector3d& camera_centre, std::uint32_t a,

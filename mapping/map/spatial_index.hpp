@@ -50,6 +50,7 @@ class SpatialIndex {
         if (lo[a] > other.hi[a] || other.lo[a] > hi[a]) return false;
       return true;
     }
+    bool operator==(const BucketRange&) const = default;
   };
   BucketRange bucket_range(const Aabb& box) const;
 

@@ -67,13 +67,6 @@ StoredPolygon& StoredPolygon::operator=(const StoredPolygon& o) {
   return *this;
 }
 
-std::uint32_t StoredPolygon::header() const {
-  if (!data_) return 0;
-  std::uint32_t header = 0;
-  std::memcpy(&header, data_.get(), sizeof header);
-  return header;
-}
-
 const Eigen::Vector3f StoredPolygon::operator[](std::size_t i) const {
   Eigen::Vector3f v;
   if (!compact()) {

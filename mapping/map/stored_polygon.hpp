@@ -10,6 +10,7 @@
 #include <concepts>
 #include <cstddef>
 #include <cstdint>
+#include <cstring>
 #include <iterator>
 #include <memory>
 #include <span>
@@ -90,7 +91,12 @@ class StoredPolygon {
     return sizeof(std::uint32_t) + (compact ? 3 * sizeof(std::int32_t) + 3 * (n - 1) * sizeof(std::int16_t)
                                             : 3 * n * sizeof(float));
   }
-  std::uint32_t header() const;
+  std::uint32_t header() const {  // inline: size() and compact() read it on every decode
+    if (!data_) return 0;
+    std::uint32_t header = 0;
+    std::memcpy(&header, data_.get(), sizeof header);
+    return header;
+  }
   const std::byte* payload() const { return data_.get() + sizeof(std::uint32_t); }
   /// Writes the size() vertices to out[0 … size() − 1].
   void decode(Eigen::Vector3f* out) const;
