@@ -1474,16 +1474,21 @@ void GlobalMap::consolidate(std::uint64_t frame_id, std::set<std::uint32_t>& tou
         pieces.push_back(std::move(piece));
       }
       if (pieces.empty()) continue;
-      // The members leave (a member cut between two unions stands in both), the unions enter.
+      // The members leave (a member cut between two unions stands in both), the unions enter;
+      // the surface's cell list is filtered once (a road holds thousands), not once per member.
+      std::vector<std::uint32_t> leaving;
       for (std::size_t k = 0; k < group.size(); ++k) {
         if (!member[k]) continue;
         const std::uint32_t id = group[k]->id;
         index_.remove(id, bounds_of(group[k]->vertices_m));
-        std::erase(surface.cells, id);
+        leaving.push_back(id);
         report.removed_cells.push_back(id);
         cells_.erase(id);
         ++report.consolidated_cells;
       }
+      std::sort(leaving.begin(), leaving.end());
+      std::erase_if(surface.cells,
+                    [&](std::uint32_t id) { return std::binary_search(leaving.begin(), leaving.end(), id); });
       for (MapCell& piece : pieces) {
         piece.id = next_cell_id_++;
         index_.insert(piece.id, bounds_of(piece.vertices_m));
