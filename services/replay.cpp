@@ -534,7 +534,8 @@ nlohmann::json to_json(const ReplayReport& r) {
         {"cells", m.cells}, {"mixed_cells", m.mixed_cells}, {"gt_surfaces", m.gt_surfaces},
         {"labels", m.labels}, {"area_in_dominant_label", m.area_in_dominant_label},
         {"area_one_label", m.area_one_label}, {"cross_merged_cells", m.cross_merged_cells},
-        {"cross_merged_cells_between_planes", m.cross_merged_cells_between_planes}};
+        {"cross_merged_cells_between_planes", m.cross_merged_cells_between_planes},
+        {"cross_merged_cells_boundary", m.cross_merged_cells_boundary}};
     const auto share_json = [](const eval::MergeMetrics::KindShare& k) {
       return nlohmann::json{{"kind", k.kind}, {"gt_surfaces", k.gt_surfaces}, {"area", k.area},
                             {"area_one_label", k.one_label}, {"area_not_one_label", k.lost}};
@@ -637,6 +638,10 @@ std::string summary_text(const ReplayReport& r) {
         << " % of cells merged across GT surfaces, " << 100.0 * m.cross_merged_cells_between_planes
         << " % across GT planes (" << m.gt_surfaces << " GT surfaces -> " << m.labels
         << " labels, " << m.cells << " cells, " << m.mixed_cells << " mixed cells left out)\n";
+    if (m.cross_merged_cells_between_planes > 0.0)
+      out << "  of those across GT planes, boundary cells (under "
+          << 100.0 * eval::MergeMetrics::kPureCellShare << " % of their pixels on their GT surface): "
+          << 100.0 * m.cross_merged_cells_boundary << " % of cells\n";
     if (m.area_one_label < 1.0 && !m.by_kind.empty()) {
       out << "  GT area not in one label, by kind (% of all GT area):";
       for (const auto& k : m.by_kind)

@@ -46,7 +46,8 @@ void MergeEvaluator::add_frame(const cv::Mat& labels, const cv::Mat& gt_surface_
     }
     const Eigen::Vector3d centroid = map::vertex_centroid(cells_world[i].vertices_m);
     samples_.push_back({best->first, static_cast<float>(map::polygon_area_m2(cells_world[i].vertices_m)),
-                        report.cell_surfaces[i], cells_world[i].depth_sigma_m, centroid.cast<float>()});
+                        report.cell_surfaces[i], cells_world[i].depth_sigma_m, centroid.cast<float>(),
+                        static_cast<float>(best->second) / static_cast<float>(totals[i])});
     if (const auto plane = gt_planes_.find(best->first); plane != gt_planes_.end() && !cells_world[i].vertices_m.empty()) {
       // θ' with σ = 1 m: the RMS distance of the vertices to the GT plane, in metres.
       plane_errors_m_.push_back(static_cast<float>(map::plane_residual(plane->second, cells_world[i].vertices_m, 1.0)));
@@ -191,7 +192,7 @@ MergeMetrics MergeEvaluator::finish() const {
     const Eigen::Vector3d p = c - own->second.signed_distance(c) * own->second.normal;
     return std::abs(other->second.signed_distance(p)) > 2.0 * static_cast<double>(s.depth_sigma_m);
   };
-  std::size_t crossed = 0, crossed_planes = 0, crossed_resolvable = 0;
+  std::size_t crossed = 0, crossed_planes = 0, crossed_resolvable = 0, crossed_boundary = 0;
   std::map<std::pair<std::string, std::string>, std::size_t> crossed_kinds;
   for (std::size_t k = 0; k < kept.size(); ++k) {
     const std::uint16_t dominant = dominant_gt.at(final_labels[k]);
@@ -200,6 +201,7 @@ MergeMetrics MergeEvaluator::finish() const {
       ++crossed_planes;
       ++crossed_kinds[{kind_of(kept[k]->gt), kind_of(dominant)}];
       if (resolvable(*kept[k], dominant)) ++crossed_resolvable;
+      if (kept[k]->purity < MergeMetrics::kPureCellShare) ++crossed_boundary;
     }
   }
   for (const auto& [kinds, count] : crossed_kinds)
@@ -212,6 +214,7 @@ MergeMetrics MergeEvaluator::finish() const {
     m.cross_merged_cells = static_cast<double>(crossed) / static_cast<double>(kept.size());
     m.cross_merged_cells_between_planes = static_cast<double>(crossed_planes) / static_cast<double>(kept.size());
     m.cross_merged_cells_resolvable = static_cast<double>(crossed_resolvable) / static_cast<double>(kept.size());
+    m.cross_merged_cells_boundary = static_cast<double>(crossed_boundary) / static_cast<double>(kept.size());
   }
   return m;
 }

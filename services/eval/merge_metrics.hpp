@@ -44,6 +44,13 @@ struct MergeMetrics {
   /// whose GT planes are unknown counts as resolvable. A diagnostic beside the target's figure
   /// above, which it does not replace.
   double cross_merged_cells_resolvable = 0.0;
+  /// Of cross_merged_cells_between_planes, the share (of all counted cells) of boundary cells:
+  /// fewer than kPureCellShare of the cell's own pixels on its GT surface (a superpixel
+  /// straddling a door's edge, 60 % door and 40 % facade, counts as a door cell in the facade's
+  /// label). The extraction's share of the figure: the rest are pure cells the merge placed in
+  /// another GT plane's label. A diagnostic beside the target's figure, like the one above.
+  double cross_merged_cells_boundary = 0.0;
+  static constexpr double kPureCellShare = 0.9;
   // --- the cells' planes against their GT surface's plane (MergeEvaluator::set_gt_surface_planes) --
   /// Cells measured: pure cells (as above, those of later pruned surfaces included) whose GT
   /// surface has a known plane; 0 = no GT planes.
@@ -161,6 +168,7 @@ class MergeEvaluator {
     std::uint32_t label = 0;
     float depth_sigma_m = 0.0f;              ///< the cell's σ_Z
     Eigen::Vector3f centroid = Eigen::Vector3f::Zero();  ///< its vertex centroid (world)
+    float purity = 1.0f;  ///< share of the cell's pixels on `gt` (≥ 0.5)
   };
   std::uint32_t final_label(std::uint32_t label) const;
 

@@ -141,6 +141,27 @@ TEST(MergeMetrics, CrossMergesBeyondTwiceTheCellsDepthNoiseAreTheResolvableOnes)
   EXPECT_NEAR(no_planes.finish().cross_merged_cells_resolvable, 0.5, 1e-9);
 }
 
+TEST(MergeMetrics, CrossMergedBoundaryCellsAreThoseUnder90PercentOnTheirGtSurface) {
+  // Label 10 holds, over two frames, two 4 m² cells of GT 1 (which dominates it: 8 m² of 10), a
+  // 1 m² cell 6/8 of whose pixels are GT 2 (a boundary cell: 75 % < 90 %) and a pure 1 m² cell of
+  // GT 3. Both are merged across GT planes; only the first is a boundary cell. The second frame's
+  // GT 1 cell is 7/8 pure (87.5 %) but in its own GT surface's label: not crossed, not counted.
+  MergeEvaluator eval;
+  map::MergeReport report;
+  report.cell_surfaces = {10, 10};
+  cv::Mat labels, gt;
+  halves(labels, gt, 0, 1, 1, 2);
+  gt.at<std::uint16_t>(2, 3) = gt.at<std::uint16_t>(3, 3) = 1;  // two of cell 1's eight pixels: GT 1
+  eval.add_frame(labels, gt, std::vector<Planecell>{square(0, 2.0f), square(1, 1.0f)}, report);
+  halves(labels, gt, 0, 1, 1, 3);
+  gt.at<std::uint16_t>(0, 0) = 3;  // one of cell 0's eight pixels: GT 3
+  eval.add_frame(labels, gt, std::vector<Planecell>{square(0, 2.0f), square(1, 1.0f)}, report);
+  const MergeMetrics m = eval.finish();
+  ASSERT_EQ(m.cells, 4u);
+  EXPECT_NEAR(m.cross_merged_cells_between_planes, 2.0 / 4.0, 1e-9);
+  EXPECT_NEAR(m.cross_merged_cells_boundary, 1.0 / 4.0, 1e-9);
+}
+
 TEST(MergeMetrics, CrossMergesAcrossGtPlanesAreBrokenDownByTheTwoKinds) {
   // Label 10: 2 m² facade cells (GT 1) with a 1 m² door cell (GT 2, 3 cm proud), a 1 m² window
   // cell (GT 3, likewise) and a 1 m² cell of the next facade (GT 6); label 20: a 2 m² car side
