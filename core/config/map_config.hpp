@@ -30,6 +30,13 @@ struct MapConfig {
   double max_normal_angle_deg = 10.0;  ///< max angle between the two surfaces' normals
   double max_plane_distance_m = 0.08;  ///< smallest plane-distance tolerance d_min (m)
   double min_colour_similarity = 0.3;  ///< min histogram intersection δ ∈ [0, 1]
+  /// A new cell meets a stored cell (a neighbour edge for the CRF, the re-observation search, a
+  /// stored cell that may cover it) only when their mean colours lie within this Euclidean RGB
+  /// distance (levels 0–255 a channel; 0 = off). The CRF's colour term compares whole labels'
+  /// histograms, which a textured facade spreads wide enough for a door cell to pass; the stored
+  /// cell next to the new one is a local sample of its surface's colour. Surfaces' footprints
+  /// still cover a cell of any colour (a re-observation under other light).
+  double neighbour_max_rgb_distance = 20.0;
   /// σ floor (m): θ' residuals are measured in units of it, and a cell's depth noise σ_Z
   /// (Planecell::depth_sigma_m) counts as at least this much when weighting it (area / σ²).
   double residual_scale_m = 0.05;
@@ -278,6 +285,7 @@ void visit_fields(MapConfig& c, Visitor&& visit) {
   visit("max_normal_angle_deg", c.max_normal_angle_deg);
   visit("max_plane_distance_m", c.max_plane_distance_m);
   visit("min_colour_similarity", c.min_colour_similarity);
+  visit("neighbour_max_rgb_distance", c.neighbour_max_rgb_distance);
   visit("residual_scale_m", c.residual_scale_m);
   visit("depth_sigma_factor", c.depth_sigma_factor);
   visit("normal_depth_noise", c.normal_depth_noise);

@@ -263,6 +263,9 @@ GlobalMap::GlobalMap(const MapConfig& config)
   if (!(config.bridge_max_cell_distance_m >= 0.0) || !std::isfinite(config.bridge_max_cell_distance_m))
     throw ConfigError("map.bridge_max_cell_distance_m: must be a finite distance >= 0 (0 = off), got " +
                       std::to_string(config.bridge_max_cell_distance_m));
+  if (!(config.neighbour_max_rgb_distance >= 0.0) || !std::isfinite(config.neighbour_max_rgb_distance))
+    throw ConfigError("map.neighbour_max_rgb_distance: must be a finite RGB distance >= 0 (0 = off), got " +
+                      std::to_string(config.neighbour_max_rgb_distance));
   if (!(config.ground_join_gap_m >= 0.0) || !std::isfinite(config.ground_join_gap_m))
     throw ConfigError("map.ground_join_gap_m: must be finite and >= 0 (0 = off), got " +
                       std::to_string(config.ground_join_gap_m));
@@ -511,6 +514,12 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
         base_deg + std::atan(noise / std::sqrt(fresh_area[k])) * 180.0 / M_PI;
     return Tolerances{std::min(2.0 * base_deg, widened_deg), std::clamp(noise, gap, reach)};
   };
+  /// Do a new cell and a stored cell it meets look alike: mean colours within
+  /// MapConfig::neighbour_max_rgb_distance (0 = off)?
+  const double max_rgb = config_.neighbour_max_rgb_distance;
+  const auto colours_near = [max_rgb](const Planecell& cell, const MapCell& old) {
+    return !(max_rgb > 0.0) || (cell.mean_rgb - Eigen::Vector3f(old.mean_rgb)).norm() <= max_rgb;
+  };
   /// Does the stored cell cover the new cell: its polygon within tol of the new cell's plane,
   /// normals within angle_deg, the polygons within tol of each other.
   const auto covers_test = [](const Planecell& cell, const Aabb& box, MetCell& met, double angle_deg, double tol,
@@ -603,6 +612,7 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
                                     met.polygon(), met.box, gap);
       if (!within[i]) continue;
       if (seen->imprecise) return false;
+      if (!colours_near(cell, *met.cell)) continue;  // another of S's cells may be near in colour
       tried.push_back(surface_id);
       const SurfaceDetail& detail = *surface.detail;
       FootprintRaster raster =
@@ -702,7 +712,7 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
                     (within[i] >= 0 ? within[i] == 1
                                     : polygons_within_m(cell.plane, cell.vertices_m, box, old.plane,
                                                         met_cell.polygon(), old_box, gap));
-      if (neighbour) {
+      if (neighbour && colours_near(cell, old)) {
         auto [it, inserted] = unit_of_map_cell.try_emplace(id, static_cast<std::uint32_t>(units.size()));
         if (inserted) {
           units.push_back({old.surface, old.plane, met_cell.polygon(), nullptr, polygon_area_m2(met_cell.polygon())});
@@ -793,6 +803,7 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
       }
       for (const CoveringTest& test : covering_tests[k])
         if (const Tolerances t = tolerances_of(k, test.met->cell->depth_sigma_m);
+            colours_near(cell, *test.met->cell) &&
             covers_test(cell, fresh_box[k], *test.met, t.angle_deg, t.tol, test.neighbour))
           covering.push_back(test.met->cell);
       for (std::uint32_t id : covering_surfaces[k]) {

@@ -3,6 +3,9 @@
 /// far, noisy cell once a near, precise one covers it.
 #include <gtest/gtest.h>
 
+#include <string>
+
+#include "core/error.hpp"
 #include "mapping/map/coverage.hpp"
 #include "mapping/map/global_map.hpp"
 #include "support/planecell_fixtures.hpp"
@@ -261,6 +264,34 @@ TEST(Coverage, AReobservationIsFoundBeforeTheNeighbourSearch) {
     EXPECT_EQ(map.cells().size(), 2u);
     EXPECT_EQ(map.surfaces().size(), 1u);
   }
+}
+
+/// A new cell meets a stored cell only when their mean colours are near
+/// (MapConfig::neighbour_max_rgb_distance): a cell half over a stored one, with the same histogram
+/// (the CRF's colour term passes) but a mean colour 40 levels redder, keeps a surface of its own;
+/// 15 levels off, or with the gate off, the CRF gives it the stored cell's label.
+TEST(Coverage, ANeighbourOfAnotherMeanColourKeepsItsOwnSurface) {
+  for (const double max_rgb : {20.0, 0.0}) {
+    for (const float redder : {40.0f, 15.0f}) {
+      SCOPED_TRACE("max RGB distance " + std::to_string(max_rgb) + ", " + std::to_string(redder) + " levels redder");
+      MapConfig config;
+      config.neighbour_max_rgb_distance = max_rgb;
+      GlobalMap map(config);
+      (void)map.integrate(0, Pose::Identity(), std::vector{road(0, 0)});  // x ∈ [0, 1]
+      const std::uint32_t surface = map.cells().at(0).surface;
+      Planecell other = road(0, 0.5f);  // x ∈ [0.5, 1.5]: half of it new space, stored
+      other.mean_rgb.x() += redder;
+      const auto r = map.integrate(1, Pose::Identity(), std::vector{other});
+      ASSERT_EQ(r.added_cells.size(), 1u);
+      if (max_rgb > 0.0 && redder > max_rgb)
+        EXPECT_NE(r.cell_surfaces[0], surface);
+      else
+        EXPECT_EQ(r.cell_surfaces[0], surface);
+    }
+  }
+  MapConfig bad;
+  bad.neighbour_max_rgb_distance = -1.0;
+  EXPECT_THROW(GlobalMap{bad}, ConfigError);
 }
 
 }  // namespace
