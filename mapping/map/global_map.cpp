@@ -564,10 +564,19 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
   /// −1 untested: the search's tests, reused by the neighbour search (storage reused).
   std::vector<std::int8_t> within;
   /// The index's candidates of a bucket range (SpatialIndex::BucketRange: lo, hi, empty), with their
-  /// met_cells entries: candidates(box) depends on the box only through the buckets it touches,
-  /// and neighbouring new cells mostly touch the same ones, so each range is queried once a frame.
-  std::map<std::array<std::int64_t, 7>, std::pair<std::vector<std::uint32_t>, std::vector<MetCell*>>>
-      candidates_of_range;
+  /// met_cells entries and their bounds side by side (the per-cell bounds test runs over one
+  /// contiguous array, not through the hash nodes): candidates(box) depends on the box only through
+  /// the buckets it touches, and neighbouring new cells mostly touch the same ones, so each range
+  /// is queried once a frame.
+  struct RangeCandidates {
+    std::vector<std::uint32_t> ids;
+    std::vector<MetCell*> met_at;
+    std::vector<Aabb> boxes;
+  };
+  std::map<std::array<std::int64_t, 7>, RangeCandidates> candidates_of_range;
+  /// The positions i in a range's candidates whose bounds meet new cell k's reach, in index order
+  /// (storage reused).
+  std::vector<std::uint32_t> reached;
   const auto find_reobserved = [&](std::size_t k, const Aabb& near_box, std::span<const std::uint32_t> ids,
                                    std::span<MetCell* const> met_at) {
     const Planecell& cell = *fresh[k];
@@ -577,7 +586,7 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
     // polygons are tested, and the footprint test runs on the first of its cells within the gap.
     tried.clear();   // surfaces done with: set aside, or met within the gap and not taken
     ranged.clear();  // surfaces in range of k (or much less precise), none of their cells within yet
-    for (std::size_t i = 0; i < ids.size(); ++i) {
+    for (const std::uint32_t i : reached) {
       const std::uint32_t id = ids[i];
       MetCell& met = *met_at[i];
       const std::uint32_t surface_id = met.cell->surface;
@@ -678,7 +687,7 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
     const SpatialIndex::BucketRange range = index_.bucket_range(reach_box);
     auto [memo, first_range] = candidates_of_range.try_emplace(
         {range.lo[0], range.lo[1], range.lo[2], range.hi[0], range.hi[1], range.hi[2], range.empty});
-    auto& [ids, met_at] = memo->second;
+    auto& [ids, met_at, boxes] = memo->second;
     if (first_range) {
       index_.candidates(reach_box, ids);
       // Each candidate's entry, looked up once for the search and the neighbour loop (hash
@@ -690,17 +699,20 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
           met->second = {&c, &surfaces_.at(c.surface), bounds_of(c.vertices_m), {}};
         }
         met_at.push_back(&met->second);
+        boxes.push_back(met->second.box);
       }
     }
+    reached.clear();
+    for (std::size_t i = 0; i < boxes.size(); ++i)
+      if (boxes[i].overlaps(reach_box)) reached.push_back(static_cast<std::uint32_t>(i));
     within.assign(ids.size(), -1);
     const bool prefused =
         config_.prefuse_reobservations && find_reobserved(k, near_box, ids, met_at);
-    for (std::size_t i = 0; i < ids.size(); ++i) {
+    for (const std::uint32_t i : reached) {
       const std::uint32_t id = ids[i];
       MetCell& met_cell = *met_at[i];
       const MapCell& old = *met_cell.cell;
       const Aabb& old_box = met_cell.box;
-      if (!old_box.overlaps(reach_box)) continue;
       const Surface& surface = *met_cell.surface;
       if (max_age > 0 && surface.frames_observed < confirm && surface.last_observed_frame + max_age <= frame_id)
         unconfirmed.insert(old.surface);
