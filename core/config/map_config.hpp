@@ -120,7 +120,7 @@ struct MapConfig {
   /// distance (between their nearest stored cells) under the long bridge's tests of one plane:
   /// both at least bridge_long_min_area_m2, normals within bridge_long_max_angle_deg, the step
   /// between their planes at the two cells' midpoint at most bridge_long_max_step_m, colours at
-  /// least bridge_long_min_colour, and no other surface off the plane within 0.2 m of the straight
+  /// least ground_join_min_colour, and no other surface off the plane within 0.2 m of the straight
   /// path between the two cells on the plane (a road 15 cm below the two sidewalks either side of
   /// it, a curb); surfaces below fragment_join_max_area_m2 do not count (pieces of the ground seen
   /// between the occluders from afar, fitted 5–10 cm or tens of degrees off). Only ground
@@ -128,6 +128,13 @@ struct MapConfig {
   /// two buildings as one behind an occluder, while the ground is one surface unless something
   /// lies between. docs/PERFORMANCE.md, "Ground surfaces joined across long gaps".
   double ground_join_gap_m = 40.0;
+  /// The ground join's colour test: the two surfaces' histograms at least this alike (the CRF's
+  /// δ, in [0, 1]), looser than bridge_long_min_colour because the tests of one plane above (3°,
+  /// 4 cm step, nothing off the plane between) are what tell two ground surfaces apart, and one
+  /// sidewalk's pieces mapped from 10 m and from 40 m differ in colour: the blur of distance
+  /// narrows a textured surface's histogram (δ 0.51–0.68 between pieces of one GT sidewalk on the
+  /// synthetic streets). docs/PERFORMANCE.md, "The ground join's own colour test".
+  double ground_join_min_colour = 0.5;
   // --- fusion and index -----------------------------------------------------------------------
   /// Re-observations are found before the neighbour search: a new cell within neighbour_gap_m
   /// of a stored cell whose surface is live, in the CRF's variation range of it, and adding less
@@ -303,6 +310,7 @@ void visit_fields(MapConfig& c, Visitor&& visit) {
   visit("bridge_long_max_step_m", c.bridge_long_max_step_m);
   visit("bridge_long_min_colour", c.bridge_long_min_colour);
   visit("ground_join_gap_m", c.ground_join_gap_m);
+  visit("ground_join_min_colour", c.ground_join_min_colour);
   visit("prefuse_reobservations", c.prefuse_reobservations);
   visit("fuse_new_area_fraction", c.fuse_new_area_fraction);
   visit("redundant_coverage", c.redundant_coverage);

@@ -269,6 +269,9 @@ GlobalMap::GlobalMap(const MapConfig& config)
   if (!(config.ground_join_gap_m >= 0.0) || !std::isfinite(config.ground_join_gap_m))
     throw ConfigError("map.ground_join_gap_m: must be finite and >= 0 (0 = off), got " +
                       std::to_string(config.ground_join_gap_m));
+  if (!(config.ground_join_min_colour >= 0.0 && config.ground_join_min_colour <= 1.0))
+    throw ConfigError("map.ground_join_min_colour: must be a colour similarity in [0, 1], got " +
+                      std::to_string(config.ground_join_min_colour));
   if (!(config.bridge_min_area_m2 >= 0.0))
     throw ConfigError("map.bridge_min_area_m2: must be >= 0 (0 = any), got " +
                       std::to_string(config.bridge_min_area_m2));
@@ -1311,7 +1314,7 @@ bool GlobalMap::join_ground_across_gap(Surface& surface, std::set<std::uint32_t>
       continue;
     Surface& other = surfaces_.at(other_id);
     LabelState self_state = state_of_surface(surface);
-    if (colour_similarity(self_state.histogram, expand(other.histogram)) < config_.bridge_long_min_colour) continue;
+    if (colour_similarity(self_state.histogram, expand(other.histogram)) < config_.ground_join_min_colour) continue;
     wake(other);  // `surface` is live (it was going dormant); the other's state is taken awake
     merge_surfaces(surface.id, std::move(self_state), other_id, state_of_surface(other), touched, report);
     return true;

@@ -1174,13 +1174,16 @@ TEST(Bridge, NoLongBridgeWhenOffSeenOpenlyFilledSteppedOrOfAnotherColour) {
 /// (dormant_after_frames 10) the first one due, going dormant, meets the other. Optionally the gap
 /// holds a road strip 15 cm below the floor (y = 1.65, z ∈ [14, 35], large), or a small floor
 /// fragment 8 cm off it (2 m × 2 m at z ∈ [24, 26]); the second patch may be raised, or both
-/// patches stood up as walls (z = 8 and z = 37 swapped for x = 8, the same 25 m apart).
+/// patches stood up as walls (z = 8 and z = 37 swapped for x = 8, the same 25 m apart). The far
+/// patch's colour histogram holds `far_colour_share` of its weight in the near one's bin (0) and
+/// the rest in bin 12: the two surfaces' colour similarity δ is that share.
 struct GroundGapCase {
   MapConfig config = far_reach_config();
   bool road_in_gap = false;
   bool fragment_in_gap = false;
   float raise_m = 0.0f;
   bool walls = false;
+  float far_colour_share = 1.0f;
   std::vector<MergeReport> reports;
   std::size_t run() {
     GlobalMap map(config);
@@ -1191,6 +1194,10 @@ struct GroundGapCase {
     } else {
       test::tile(first, {-3, 1.5f, 8}, kX, kZ, 6, 4, 1, 0, 0);
       test::tile(second, {-3, 1.5f - raise_m, 37}, kX, kZ, 6, 4, 1, 0, 0);
+    }
+    for (Planecell& cell : second) {
+      cell.histogram[0] = far_colour_share;
+      cell.histogram[12] = 1.0f - far_colour_share;
     }
     if (road_in_gap) test::tile(extra, {-3, 1.65f, 14}, kX, kZ, 6, 21, 1, 0, 9);
     if (fragment_in_gap) test::tile(extra, {-1, 1.58f, 24}, kX, kZ, 2, 2, 1, 0, 0);
@@ -1244,6 +1251,29 @@ TEST(GroundJoin, NoJoinWhenOffTooFarARoadLiesBetweenSteppedOrNotGround) {
   MapConfig bad;
   bad.ground_join_gap_m = -1.0;
   EXPECT_CONTAINS(test::error_of<ConfigError>([&] { GlobalMap{bad}; }), "map.ground_join_gap_m");
+}
+
+/// A sidewalk's pieces mapped from 10 m and from 40 m differ in colour (distance blurs the
+/// texture): the ground join's own colour test (ground_join_min_colour, 0.5) passes δ = 0.6, which
+/// the long bridge's (bridge_long_min_colour, 0.75) would not; δ = 0.3 stays apart.
+TEST(GroundJoin, JoinsGroundOfAnotherLookWithinItsOwnColourTest) {
+  GroundGapCase alike;
+  ASSERT_EQ(alike.config.ground_join_min_colour, 0.5);
+  ASSERT_EQ(alike.config.bridge_long_min_colour, 0.75);
+  alike.far_colour_share = 0.6f;
+  EXPECT_EQ(alike.run(), 1u);
+  EXPECT_EQ(alike.reports[3].surface_merges.size(), 1u);
+  GroundGapCase strict;  // the long bridge's colour test: apart
+  strict.far_colour_share = 0.6f;
+  strict.config.ground_join_min_colour = 0.75;
+  EXPECT_EQ(strict.run(), 2u);
+  GroundGapCase unlike;
+  unlike.far_colour_share = 0.3f;
+  EXPECT_EQ(unlike.run(), 2u);
+  for (const auto* c : {&strict, &unlike}) EXPECT_TRUE(c->reports[3].surface_merges.empty());
+  MapConfig bad;
+  bad.ground_join_min_colour = 1.5;
+  EXPECT_CONTAINS(test::error_of<ConfigError>([&] { GlobalMap{bad}; }), "map.ground_join_min_colour");
 }
 
 TEST(Bridge, NegativeGapOrAreaIsAConfigError) {
