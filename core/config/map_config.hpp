@@ -118,7 +118,8 @@ struct MapConfig {
   /// dormant, out of the long bridge's reach from the frame's cells. So a large mature ground
   /// surface (normal within max_ground_tilt_deg of `up`) going dormant joins another within this
   /// distance (between their nearest stored cells) under the long bridge's tests of one plane:
-  /// both at least bridge_long_min_area_m2, normals within bridge_long_max_angle_deg, the step
+  /// one at least bridge_long_min_area_m2 and the other ground_join_min_area_m2, normals within
+  /// bridge_long_max_angle_deg, the step
   /// between their planes at the two cells' midpoint at most bridge_long_max_step_m, colours at
   /// least ground_join_min_colour, and no other surface off the plane within 0.2 m of the straight
   /// path between the two cells on the plane (a road 15 cm below the two sidewalks either side of
@@ -135,6 +136,11 @@ struct MapConfig {
   /// narrows a textured surface's histogram (δ 0.51–0.68 between pieces of one GT sidewalk on the
   /// synthetic streets). docs/PERFORMANCE.md, "The ground join's own colour test".
   double ground_join_min_colour = 0.5;
+  /// The ground join's pair: one surface at least bridge_long_min_area_m2, the other at least this
+  /// (m²), both mature and level. A well-observed 10–20 m² piece of a sidewalk left between parked
+  /// cars otherwise never joins the sidewalk it lies in line with (the tests of one plane still
+  /// apply). docs/PERFORMANCE.md, "The ground join's own colour test".
+  double ground_join_min_area_m2 = 10.0;
   // --- fusion and index -----------------------------------------------------------------------
   /// Re-observations are found before the neighbour search: a new cell within neighbour_gap_m
   /// of a stored cell whose surface is live, in the CRF's variation range of it, and adding less
@@ -311,6 +317,7 @@ void visit_fields(MapConfig& c, Visitor&& visit) {
   visit("bridge_long_min_colour", c.bridge_long_min_colour);
   visit("ground_join_gap_m", c.ground_join_gap_m);
   visit("ground_join_min_colour", c.ground_join_min_colour);
+  visit("ground_join_min_area_m2", c.ground_join_min_area_m2);
   visit("prefuse_reobservations", c.prefuse_reobservations);
   visit("fuse_new_area_fraction", c.fuse_new_area_fraction);
   visit("redundant_coverage", c.redundant_coverage);

@@ -269,6 +269,9 @@ GlobalMap::GlobalMap(const MapConfig& config)
   if (!(config.ground_join_gap_m >= 0.0) || !std::isfinite(config.ground_join_gap_m))
     throw ConfigError("map.ground_join_gap_m: must be finite and >= 0 (0 = off), got " +
                       std::to_string(config.ground_join_gap_m));
+  if (!(config.ground_join_min_area_m2 >= 0.0) || !std::isfinite(config.ground_join_min_area_m2))
+    throw ConfigError("map.ground_join_min_area_m2: must be a finite area >= 0, got " +
+                      std::to_string(config.ground_join_min_area_m2));
   if (!(config.ground_join_min_colour >= 0.0 && config.ground_join_min_colour <= 1.0))
     throw ConfigError("map.ground_join_min_colour: must be a colour similarity in [0, 1], got " +
                       std::to_string(config.ground_join_min_colour));
@@ -1260,10 +1263,13 @@ bool GlobalMap::join_ground_across_gap(Surface& surface, std::set<std::uint32_t>
   const double min_area = config_.bridge_long_min_area_m2;
   const double ground_cos = std::cos(config_.max_ground_tilt_deg * M_PI / 180.0);
   const double pair_cos = std::cos(config_.bridge_long_max_angle_deg * M_PI / 180.0);
-  const auto large_ground = [&](const Surface& s) {
-    return s.observations >= mature && s.area_m2 >= min_area && std::abs(s.plane.normal().dot(up_)) >= ground_cos;
+  const auto ground_of = [&](const Surface& s, double area_m2) {
+    return s.observations >= mature && s.area_m2 >= area_m2 && std::abs(s.plane.normal().dot(up_)) >= ground_cos;
   };
-  if (!(gap > 0.0) || !large_ground(surface)) return false;
+  // One of the pair large (min_area), the other at least ground_join_min_area_m2.
+  if (!(gap > 0.0) || !ground_of(surface, std::min(min_area, config_.ground_join_min_area_m2))) return false;
+  const double other_min_area = ground_of(surface, min_area) ? config_.ground_join_min_area_m2 : min_area;
+  const auto large_ground = [&](const Surface& s) { return ground_of(s, other_min_area); };
   // Per other large ground surface of a nearly parallel plane with stored cells within the gap
   // of this one's bounds: the nearest pair of cell centroids (this one's, the other's).
   struct Nearest {

@@ -1184,6 +1184,7 @@ struct GroundGapCase {
   float raise_m = 0.0f;
   bool walls = false;
   float far_colour_share = 1.0f;
+  float far_width_m = 6.0f;  ///< the far patch's extent along x (4 m along z)
   std::vector<MergeReport> reports;
   std::size_t run() {
     GlobalMap map(config);
@@ -1193,7 +1194,7 @@ struct GroundGapCase {
       test::tile(second, {8 - raise_m, -2.5f, 37}, kZ, kY, 6, 4, 1, 0, 0);
     } else {
       test::tile(first, {-3, 1.5f, 8}, kX, kZ, 6, 4, 1, 0, 0);
-      test::tile(second, {-3, 1.5f - raise_m, 37}, kX, kZ, 6, 4, 1, 0, 0);
+      test::tile(second, {-3, 1.5f - raise_m, 37}, kX, kZ, far_width_m, 4, 1, 0, 0);
     }
     for (Planecell& cell : second) {
       cell.histogram[0] = far_colour_share;
@@ -1274,6 +1275,33 @@ TEST(GroundJoin, JoinsGroundOfAnotherLookWithinItsOwnColourTest) {
   MapConfig bad;
   bad.ground_join_min_colour = 1.5;
   EXPECT_CONTAINS(test::error_of<ConfigError>([&] { GlobalMap{bad}; }), "map.ground_join_min_colour");
+}
+
+/// A well-observed 12 m² piece of ground joins a large one across the gap (one of the pair at
+/// least bridge_long_min_area_m2, 20, the other at least ground_join_min_area_m2, 10); an 8 m²
+/// piece, or both under 20 m², or 12 m² with ground_join_min_area_m2 at 20, stay apart.
+TEST(GroundJoin, ASmallerPieceJoinsALargeOneButTwoSmallOnesStayApart) {
+  GroundGapCase smaller;
+  ASSERT_EQ(smaller.config.ground_join_min_area_m2, 10.0);
+  ASSERT_EQ(smaller.config.bridge_long_min_area_m2, 20.0);
+  smaller.far_width_m = 3.0f;  // 12 m²
+  EXPECT_EQ(smaller.run(), 1u);
+  EXPECT_EQ(smaller.reports[3].surface_merges.size(), 1u);
+  GroundGapCase too_small;
+  too_small.far_width_m = 2.0f;  // 8 m²
+  EXPECT_EQ(too_small.run(), 2u);
+  GroundGapCase old_rule;  // both at least 20 m²
+  old_rule.far_width_m = 3.0f;
+  old_rule.config.ground_join_min_area_m2 = 20.0;
+  EXPECT_EQ(old_rule.run(), 2u);
+  GroundGapCase both_small;  // the near patch under 20 m² too
+  both_small.far_width_m = 3.0f;
+  both_small.config.bridge_long_min_area_m2 = 30.0;
+  EXPECT_EQ(both_small.run(), 2u);
+  for (const auto* c : {&too_small, &old_rule, &both_small}) EXPECT_TRUE(c->reports[3].surface_merges.empty());
+  MapConfig bad;
+  bad.ground_join_min_area_m2 = -1.0;
+  EXPECT_CONTAINS(test::error_of<ConfigError>([&] { GlobalMap{bad}; }), "map.ground_join_min_area_m2");
 }
 
 TEST(Bridge, NegativeGapOrAreaIsAConfigError) {
