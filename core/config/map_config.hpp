@@ -119,9 +119,9 @@ struct MapConfig {
   /// surface (normal within max_ground_tilt_deg of `up`) going dormant joins another within this
   /// distance (between their nearest stored cells) under the long bridge's tests of one plane:
   /// one at least bridge_long_min_area_m2 and the other ground_join_min_area_m2, normals within
-  /// bridge_long_max_angle_deg, the step
-  /// between their planes at the two cells' midpoint at most bridge_long_max_step_m, colours at
-  /// least ground_join_min_colour, and no other surface off the plane within 0.2 m of the straight
+  /// bridge_long_max_angle_deg, the step between their planes at the two cells' midpoint at most
+  /// bridge_long_max_step_m, colours at least ground_join_min_colour (not the long bridge's
+  /// bridge_long_min_colour), and no other surface off the plane within 0.2 m of the straight
   /// path between the two cells on the plane (a road 15 cm below the two sidewalks either side of
   /// it, a curb); surfaces below fragment_join_max_area_m2 do not count (pieces of the ground seen
   /// between the occluders from afar, fitted 5–10 cm or tens of degrees off). Only ground
@@ -134,12 +134,13 @@ struct MapConfig {
   /// 4 cm step, nothing off the plane between) are what tell two ground surfaces apart, and one
   /// sidewalk's pieces mapped from 10 m and from 40 m differ in colour: the blur of distance
   /// narrows a textured surface's histogram (δ 0.51–0.68 between pieces of one GT sidewalk on the
-  /// synthetic streets). docs/PERFORMANCE.md, "The ground join's own colour test".
+  /// synthetic streets). docs/PERFORMANCE.md, "The ground join's own colour test and smaller
+  /// pieces".
   double ground_join_min_colour = 0.5;
   /// The ground join's pair: one surface at least bridge_long_min_area_m2, the other at least this
   /// (m²), both mature and level. A well-observed 10–20 m² piece of a sidewalk left between parked
   /// cars otherwise never joins the sidewalk it lies in line with (the tests of one plane still
-  /// apply). docs/PERFORMANCE.md, "The ground join's own colour test".
+  /// apply). docs/PERFORMANCE.md, "The ground join's own colour test and smaller pieces".
   double ground_join_min_area_m2 = 10.0;
   // --- fusion and index -----------------------------------------------------------------------
   /// Re-observations are found before the neighbour search: a new cell within neighbour_gap_m

@@ -1270,8 +1270,9 @@ bool GlobalMap::join_ground_across_gap(Surface& surface, std::set<std::uint32_t>
   if (!(gap > 0.0) || !ground_of(surface, std::min(min_area, config_.ground_join_min_area_m2))) return false;
   const double other_min_area = ground_of(surface, min_area) ? config_.ground_join_min_area_m2 : min_area;
   const auto large_ground = [&](const Surface& s) { return ground_of(s, other_min_area); };
-  // Per other large ground surface of a nearly parallel plane with stored cells within the gap
-  // of this one's bounds: the nearest pair of cell centroids (this one's, the other's).
+  // Per other ground surface large enough (large_ground) of a nearly parallel plane with stored
+  // cells within the gap of this one's bounds: the nearest pair of cell centroids (this one's,
+  // the other's).
   struct Nearest {
     double distance_m = std::numeric_limits<double>::infinity();
     Eigen::Vector3d a, b;
