@@ -1266,9 +1266,12 @@ bool GlobalMap::join_ground_across_gap(Surface& surface, std::set<std::uint32_t>
   const auto ground_of = [&](const Surface& s, double area_m2) {
     return s.observations >= mature && s.area_m2 >= area_m2 && std::abs(s.plane.normal().dot(up_)) >= ground_cos;
   };
-  // One of the pair large (min_area), the other at least ground_join_min_area_m2.
-  if (!(gap > 0.0) || !ground_of(surface, std::min(min_area, config_.ground_join_min_area_m2))) return false;
-  const double other_min_area = ground_of(surface, min_area) ? config_.ground_join_min_area_m2 : min_area;
+  // The pair: the larger at least the larger of bridge_long_min_area_m2 and
+  // ground_join_min_area_m2, the smaller at least the smaller of them (whichever goes dormant).
+  const double small_area = std::min(min_area, config_.ground_join_min_area_m2);
+  const double large_area = std::max(min_area, config_.ground_join_min_area_m2);
+  if (!(gap > 0.0) || !ground_of(surface, small_area)) return false;
+  const double other_min_area = ground_of(surface, large_area) ? small_area : large_area;
   const auto large_ground = [&](const Surface& s) { return ground_of(s, other_min_area); };
   // Per other ground surface large enough (large_ground) of a nearly parallel plane with stored
   // cells within the gap of this one's bounds: the nearest pair of cell centroids (this one's,

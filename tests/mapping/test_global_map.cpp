@@ -1298,6 +1298,11 @@ TEST(GroundJoin, ASmallerPieceJoinsALargeOneButTwoSmallOnesStayApart) {
   both_small.far_width_m = 3.0f;
   both_small.config.bridge_long_min_area_m2 = 30.0;
   EXPECT_EQ(both_small.run(), 2u);
+  GroundGapCase thresholds_swapped;  // 24 m² and 12 m² against 10 and 20 m² the other way round
+  thresholds_swapped.far_width_m = 3.0f;
+  thresholds_swapped.config.bridge_long_min_area_m2 = 10.0;
+  thresholds_swapped.config.ground_join_min_area_m2 = 20.0;
+  EXPECT_EQ(thresholds_swapped.run(), 1u);
   for (const auto* c : {&too_small, &old_rule, &both_small}) EXPECT_TRUE(c->reports[3].surface_merges.empty());
   MapConfig bad;
   bad.ground_join_min_area_m2 = -1.0;
