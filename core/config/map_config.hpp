@@ -167,7 +167,7 @@ struct MapConfig {
   /// not count: the nearer, better observation is stored.
   /// The surfaces of those nearby cells cover the new cell too, where their footprints (every
   /// observation fused into them, stored or not) hold its points, when the cell's vertices lie
-  /// within clamp(redundant_sigma_factor·σ_new, residual_scale_m, redundant_max_distance_m) (RMS)
+  /// within clamp(redundant_sigma_factor·σ_new, residual_scale_m, neighbour_gap_m) (RMS)
   /// of the surface's plane, the normals within the same angle, and the surface is not much less
   /// precise (σ_eff ≤ redundant_precision_ratio·max(σ_new, residual_scale_m)).
   double redundant_coverage = 0.75;

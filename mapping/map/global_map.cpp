@@ -669,11 +669,13 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
     // cell's own noise (not widened to the neighbour gap: the footprint may hold noisy views)
     // and it is not much less precise than the cell (then the cell is stored, as above): its
     // plane within the cell's own noise, and its σ_eff at most redundant_precision_ratio × the
-    // cell's σ (floored like the surfaces' moments).
+    // cell's σ (floored like the surfaces' moments). The noise counts up to the neighbour gap,
+    // not beyond: a footprint keeps no planes of its fused views to test the cell against, and a
+    // plane farther than the gap is another surface (a kerb's 15 cm, a step) as often as noise.
     auto& candidates = covering_surfaces[k];
     if (std::find(candidates.begin(), candidates.end(), old.surface) != candidates.end()) return;
     const double surface_tol = std::clamp(config_.redundant_sigma_factor * coverage_sigma[k],
-                                          config_.residual_scale_m, reach);
+                                          config_.residual_scale_m, std::max(config_.residual_scale_m, gap));
     const double max_surface_sigma =
         config_.redundant_precision_ratio *
         std::max<double>(cell.depth_sigma_m, config_.residual_scale_m);

@@ -198,6 +198,44 @@ TEST(Coverage, AFarKerbCellIsCoveredWithinItsNoiseAlongTheNormal) {
   }
 }
 
+/// A surface's footprint covers a cell within the cell's noise along its normal only up to the
+/// neighbour gap (neighbour_gap_m, 0.3 m): the setting above seen from straight above (σ_n ≈ σ_Z),
+/// the road square on y = 1.5 at x ∈ [0, 1], z ∈ [5, 6] and its footprint stretched to x = 1.2;
+/// then a cell of another colour 0.35 m above it (y = 1.15) at x ∈ [0.35, 1.35] with σ_Z = 0.3 m,
+/// 2σ_n ≈ 0.6 m. The stored square covers 65 % of it (below redundant_coverage), the footprint
+/// 85 % were its plane allowed 0.6 m off: capped at the gap, the 0.35 m keep it out and it is
+/// stored. With the gap at 0.4 m the footprint covers it and it is fused into the road.
+TEST(Coverage, AFootprintCoversANoisyCellOnlyWithinTheNeighbourGap) {
+  for (const double gap_m : {0.3, 0.4}) {
+    SCOPED_TRACE("neighbour gap " + std::to_string(gap_m) + " m");
+    MapConfig config;
+    config.neighbour_gap_m = gap_m;
+    GlobalMap map(config);
+    Pose above = Pose::Identity();
+    above.translation() = Eigen::Vector3d(0.85, -3.5, 5.5);
+    (void)map.integrate(0, above, std::vector{road(0, 0)});
+    ASSERT_EQ(map.cells().size(), 1u);
+    const std::uint32_t road_surface = map.cells().at(0).surface;
+    ASSERT_EQ(map.integrate(1, above, std::vector{road(0, 0.2f)}).fused_cells, 1u);
+    Planecell lifted = rect_cell(0, {0.35f, 1.15f, 5}, kX, kZ, 30);
+    lifted.depth_sigma_m = 0.3f;
+    ASSERT_GT(2.0 * normal_depth_sigma_m(lifted, above.translation()), 0.55);
+    const auto r = map.integrate(2, above, std::vector{lifted});
+    ASSERT_EQ(r.cell_surfaces.size(), 1u);
+    if (gap_m < 0.35) {
+      EXPECT_EQ(r.redundant_cells, 0u);
+      EXPECT_EQ(r.added_cells.size(), 1u);
+      EXPECT_NE(r.cell_surfaces[0], road_surface);
+      EXPECT_EQ(map.cells().size(), 2u);
+    } else {
+      EXPECT_EQ(r.redundant_cells, 1u);
+      EXPECT_TRUE(r.added_cells.empty());
+      EXPECT_EQ(r.cell_surfaces[0], road_surface);
+      EXPECT_EQ(map.cells().size(), 1u);
+    }
+  }
+}
+
 TEST(Coverage, NearPreciseCellsReplaceAFarNoisyCellTheyCover) {
   MapConfig config;
   GlobalMap map(config);
