@@ -26,6 +26,30 @@ Planecell road(std::uint32_t id, float x0, float w = 1.0f, int colour_bin = 3) {
 /// The map's record of a hand-made cell.
 MapCell stored(const Planecell& cell) { return map_cell_of(cell, cell.id, 0, 0); }
 
+/// Frames 0 and 1 (seen from `pose`): a road square, then a re-observation fused into it that
+/// stretches its footprint; frame 2: `cell`, expected stored on a surface of its own (`stored`) or
+/// fused into the road's surface without being stored.
+void expect_stored_or_fused_into_road(GlobalMap& map, const Pose& pose, const Planecell& road_square,
+                                      const Planecell& stretching, const Planecell& cell, bool stored) {
+  (void)map.integrate(0, pose, std::vector{road_square});
+  ASSERT_EQ(map.cells().size(), 1u);
+  const std::uint32_t road_surface = map.cells().at(0).surface;
+  ASSERT_EQ(map.integrate(1, pose, std::vector{stretching}).fused_cells, 1u);
+  const auto r = map.integrate(2, pose, std::vector{cell});
+  ASSERT_EQ(r.cell_surfaces.size(), 1u);
+  if (stored) {
+    EXPECT_EQ(r.redundant_cells, 0u);
+    EXPECT_EQ(r.added_cells.size(), 1u);
+    EXPECT_NE(r.cell_surfaces[0], road_surface);
+    EXPECT_EQ(map.cells().size(), 2u);
+  } else {
+    EXPECT_EQ(r.redundant_cells, 1u);
+    EXPECT_TRUE(r.added_cells.empty());
+    EXPECT_EQ(r.cell_surfaces[0], road_surface);
+    EXPECT_EQ(map.cells().size(), 1u);
+  }
+}
+
 TEST(Coverage, SharesOfASquareCoveredByHandPlacedSquares) {
   const Planecell cell = road(0, 0);
   const MapCell left = stored(road(1, 0, 0.5f)), right = stored(road(2, 0.5f, 0.5f)),
@@ -174,27 +198,11 @@ TEST(Coverage, AFarKerbCellIsCoveredWithinItsNoiseAlongTheNormal) {
     config.coverage_normal_noise = normal_noise;
     GlobalMap map(config);
     const auto road_at = [](float x0) { return rect_cell(0, {x0, 1.65f, 10}, kX, kZ, 3); };
-    (void)map.integrate(0, Pose::Identity(), std::vector{road_at(0)});
-    ASSERT_EQ(map.cells().size(), 1u);
-    const std::uint32_t road_surface = map.cells().at(0).surface;
-    ASSERT_EQ(map.integrate(1, Pose::Identity(), std::vector{road_at(0.2f)}).fused_cells, 1u);
     Planecell kerb = rect_cell(0, {0.35f, 1.5f, 10}, kX, kZ, 30);
     kerb.depth_sigma_m = 0.3f;
     const Eigen::Vector3d centroid(0.85, 1.5, 10.5);
     ASSERT_NEAR(normal_depth_sigma_m(kerb, Eigen::Vector3d::Zero()), 0.3 * 1.5 / centroid.norm(), 1e-6);
-    const auto r = map.integrate(2, Pose::Identity(), std::vector{kerb});
-    ASSERT_EQ(r.cell_surfaces.size(), 1u);
-    if (normal_noise) {
-      EXPECT_EQ(r.redundant_cells, 0u);
-      EXPECT_EQ(r.added_cells.size(), 1u);
-      EXPECT_NE(r.cell_surfaces[0], road_surface);
-      EXPECT_EQ(map.cells().size(), 2u);
-    } else {
-      EXPECT_EQ(r.redundant_cells, 1u);
-      EXPECT_TRUE(r.added_cells.empty());
-      EXPECT_EQ(r.cell_surfaces[0], road_surface);
-      EXPECT_EQ(map.cells().size(), 1u);
-    }
+    expect_stored_or_fused_into_road(map, Pose::Identity(), road_at(0), road_at(0.2f), kerb, normal_noise);
   }
 }
 
@@ -213,26 +221,10 @@ TEST(Coverage, AFootprintCoversANoisyCellOnlyWithinTheNeighbourGap) {
     GlobalMap map(config);
     Pose above = Pose::Identity();
     above.translation() = Eigen::Vector3d(0.85, -3.5, 5.5);
-    (void)map.integrate(0, above, std::vector{road(0, 0)});
-    ASSERT_EQ(map.cells().size(), 1u);
-    const std::uint32_t road_surface = map.cells().at(0).surface;
-    ASSERT_EQ(map.integrate(1, above, std::vector{road(0, 0.2f)}).fused_cells, 1u);
     Planecell lifted = rect_cell(0, {0.35f, 1.15f, 5}, kX, kZ, 30);
     lifted.depth_sigma_m = 0.3f;
     ASSERT_GT(2.0 * normal_depth_sigma_m(lifted, above.translation()), 0.55);
-    const auto r = map.integrate(2, above, std::vector{lifted});
-    ASSERT_EQ(r.cell_surfaces.size(), 1u);
-    if (gap_m < 0.35) {
-      EXPECT_EQ(r.redundant_cells, 0u);
-      EXPECT_EQ(r.added_cells.size(), 1u);
-      EXPECT_NE(r.cell_surfaces[0], road_surface);
-      EXPECT_EQ(map.cells().size(), 2u);
-    } else {
-      EXPECT_EQ(r.redundant_cells, 1u);
-      EXPECT_TRUE(r.added_cells.empty());
-      EXPECT_EQ(r.cell_surfaces[0], road_surface);
-      EXPECT_EQ(map.cells().size(), 1u);
-    }
+    expect_stored_or_fused_into_road(map, above, road(0, 0), road(0, 0.2f), lifted, gap_m < 0.35);
   }
 }
 
