@@ -481,6 +481,10 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
   const auto max_age = static_cast<std::uint64_t>(std::max(0, config_.unconfirmed_max_age_frames));
   const auto confirm = static_cast<std::uint32_t>(std::max(1, config_.confirm_frames));
   const double reach = coverage_rule ? std::max(gap, config_.redundant_max_distance_m) : gap;
+  /// The plane distance within which a surface's footprint covers a new cell (collect_coverage):
+  /// the cell's own noise, at least residual_scale_m and at most the neighbour gap.
+  const double surface_tol_min = config_.residual_scale_m;
+  const double surface_tol_max = std::max(surface_tol_min, gap);
   std::vector<std::uint32_t> nearby;  // index candidates of one new cell (storage reused)
   /// Stored cells met this frame with their surface and bounds, and their polygon decoded
   /// (StoredPolygon) the first time a test needs it: neighbouring new cells share most of their
@@ -666,16 +670,16 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
     }
     // The surface of a nearby cell covers the cell where its footprint (every observation
     // fused into it, stored or not) holds the cell's points, when its plane passes within the
-    // cell's own noise (not widened to the neighbour gap: the footprint may hold noisy views)
-    // and it is not much less precise than the cell (then the cell is stored, as above): its
-    // plane within the cell's own noise, and its σ_eff at most redundant_precision_ratio × the
-    // cell's σ (floored like the surfaces' moments). The noise counts up to the neighbour gap,
-    // not beyond: a footprint keeps no planes of its fused views to test the cell against, and a
-    // plane farther than the gap is another surface (a kerb's 15 cm, a step) as often as noise.
+    // cell's own noise and it is not much less precise than the cell (then the cell is stored,
+    // as above): its σ_eff at most redundant_precision_ratio × the cell's σ (floored like the
+    // surfaces' moments). The noise is not floored at the neighbour gap as for stored cells (the
+    // footprint may hold noisy views) and counts up to that gap, not beyond: a footprint keeps no
+    // planes of its fused views to test the cell against, and a plane farther than the gap is
+    // another surface (a kerb's 15 cm, a step) as often as noise.
     auto& candidates = covering_surfaces[k];
     if (std::find(candidates.begin(), candidates.end(), old.surface) != candidates.end()) return;
     const double surface_tol = std::clamp(config_.redundant_sigma_factor * coverage_sigma[k],
-                                          config_.residual_scale_m, std::max(config_.residual_scale_m, gap));
+                                          surface_tol_min, surface_tol_max);
     const double max_surface_sigma =
         config_.redundant_precision_ratio *
         std::max<double>(cell.depth_sigma_m, config_.residual_scale_m);
