@@ -1,5 +1,6 @@
 #include "io/extraction_cache.hpp"
 
+#include <unistd.h>
 #include <zlib.h>
 
 #include <cstdio>
@@ -8,6 +9,7 @@
 #include <iterator>
 #include <string>
 #include <system_error>
+#include <thread>
 #include <vector>
 
 #include "core/error.hpp"
@@ -113,7 +115,8 @@ void write_extraction_cache(const std::filesystem::path& path, std::uint64_t fin
   w.put(cache_crc(w.bytes.data(), w.bytes.size()));
 
   std::filesystem::path tmp = path;
-  tmp += ".tmp";
+  tmp += "." + std::to_string(::getpid()) + "." +
+         std::to_string(std::hash<std::thread::id>{}(std::this_thread::get_id())) + ".tmp";
   {
     std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
     out.write(reinterpret_cast<const char*>(w.bytes.data()), static_cast<std::streamsize>(w.bytes.size()));

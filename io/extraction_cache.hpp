@@ -32,7 +32,9 @@ inline constexpr std::uint8_t kExtractionCacheVersion = 1;
 std::filesystem::path extraction_cache_path(const std::filesystem::path& dir, std::uint64_t frame_id);
 
 /// Writes `frame` (labels, cells, plane_fraction, cell_size_px) to `path` through a temporary file
-/// renamed over it, so a killed writer never leaves a half file under that name. Throws
+/// renamed over it, so a killed writer never leaves a half file under that name. The temporary
+/// file is the writer's own (named after its process and thread): two replays sharing a cache
+/// folder may write the same frame at once, and the last rename wins with the same bytes. Throws
 /// StorageError naming the file when it cannot be written (e.g. a full disk).
 void write_extraction_cache(const std::filesystem::path& path, std::uint64_t fingerprint,
                             std::uint64_t frame_id, const extraction::PlanecellFrame& frame);

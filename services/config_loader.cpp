@@ -2,6 +2,7 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include <algorithm>
 #include <charconv>
 #include <fstream>
 #include <set>
@@ -85,11 +86,12 @@ AppConfig load_config(const std::filesystem::path& path) {
   return config;
 }
 
-std::string config_to_yaml(const AppConfig& config_in) {
+std::string config_to_yaml(const AppConfig& config_in, std::span<const std::string_view> sections) {
   AppConfig config = config_in;
   YAML::Emitter out;
   out << YAML::BeginMap;
   visit_sections(config, [&](const char* name, auto& section) {
+    if (!sections.empty() && std::find(sections.begin(), sections.end(), name) == sections.end()) return;
     out << YAML::Key << name << YAML::Value << YAML::BeginMap;
     visit_fields(section, [&](const char* key, auto& field) {
       out << YAML::Key << key << YAML::Value;

@@ -3,6 +3,7 @@
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <memory>
 #include <unordered_map>
@@ -101,12 +102,11 @@ std::uint64_t fnv1a(std::string_view bytes, std::uint64_t hash = 146959810393466
 /// What the extraction products of a replay depend on, besides each frame's images: the SGM and
 /// extraction configuration, the camera, and whether the disparity is the GT's.
 std::uint64_t extraction_fingerprint(const AppConfig& config, const StereoCamera& camera, bool gt_disparity) {
-  AppConfig inputs;  // the sections that produce the cells, the rest at their defaults
-  inputs.sgm = config.sgm;
-  inputs.extraction = config.extraction;
+  // The sections that produce the cells only: a new key or value elsewhere (map, voxel) keeps the cache.
+  constexpr std::array<std::string_view, 2> kInputs{"sgm", "extraction"};
   std::ostringstream text;
   text.precision(17);
-  text << config_to_yaml(inputs) << camera.fx << ' ' << camera.fy << ' ' << camera.cx << ' ' << camera.cy << ' '
+  text << config_to_yaml(config, kInputs) << camera.fx << ' ' << camera.fy << ' ' << camera.cx << ' ' << camera.cy << ' '
        << camera.baseline_m << ' ' << camera.width << ' ' << camera.height << ' ' << gt_disparity;
   return fnv1a(text.str());
 }

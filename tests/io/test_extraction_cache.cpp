@@ -8,6 +8,9 @@
 #include <iterator>
 #include <opencv2/core.hpp>
 #include <random>
+#include <string>
+#include <thread>
+#include <vector>
 
 #include "core/error.hpp"
 #include "io/extraction_cache.hpp"
@@ -73,6 +76,12 @@ void write_file_bytes(const std::filesystem::path& path, const std::vector<char>
   std::ofstream(path, std::ios::binary | std::ios::trunc).write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
 }
 
+std::size_t file_count(const std::filesystem::path& dir) {
+  std::size_t files = 0;
+  for (const auto& entry : std::filesystem::directory_iterator(dir)) files += entry.is_regular_file();
+  return files;
+}
+
 class ExtractionCacheTest : public ::testing::Test {
  protected:
   std::filesystem::path path(std::uint64_t frame_id = 7) const { return extraction_cache_path(scratch_.path(), frame_id); }
@@ -83,7 +92,7 @@ TEST_F(ExtractionCacheTest, ComesBackBitForBit) {
   const auto frame = cached_frame(23);
   write_extraction_cache(path(), 0xabcdef, 7, frame);
   EXPECT_EQ(path().filename(), "000007.pcx");
-  EXPECT_FALSE(std::filesystem::exists(path().string() + ".tmp"));
+  EXPECT_EQ(file_count(scratch_.path()), 1u);  // no temporary file left
   const auto back = read_extraction_cache(path(), 0xabcdef, 7);
   ASSERT_TRUE(back.has_value());
   ASSERT_EQ(back->cells.size(), frame.cells.size());
@@ -155,6 +164,30 @@ TEST_F(ExtractionCacheTest, AHeaderClaimingMorePixelsThanItsStreamHoldsIsRefused
   put(extraction_cache_crc32(bytes));
   EXPECT_CONTAINS(test::error_of<StorageError>([&] { (void)decode_extraction_cache(bytes, 9, 7, "hand-made"); }),
                   "cannot hold a 30000 x 30000 px label image");
+}
+
+TEST_F(ExtractionCacheTest, WritersOfTheSameFrameAtOnceLeaveOneWholeFile) {
+  // Two replays sharing a cache folder may write one frame at the same time: each through its
+  // own temporary file, so neither finds its file renamed away by the other.
+  const auto frame = cached_frame(17);
+  std::vector<std::string> errors(4);
+  {
+    std::vector<std::jthread> writers;
+    for (std::size_t w = 0; w < errors.size(); ++w)
+      writers.emplace_back([&, w] {
+        try {
+          for (int i = 0; i < 50; ++i) write_extraction_cache(path(), 0x77, 7, frame);
+        } catch (const std::exception& e) {
+          errors[w] = e.what();
+        }
+      });
+  }
+  for (const auto& error : errors) EXPECT_EQ(error, "");
+  const auto back = read_extraction_cache(path(), 0x77, 7);
+  ASSERT_TRUE(back.has_value());
+  ASSERT_EQ(back->cells.size(), frame.cells.size());
+  for (std::size_t i = 0; i < frame.cells.size(); ++i) EXPECT_TRUE(same_cached_cell(back->cells[i], frame.cells[i])) << i;
+  EXPECT_EQ(file_count(scratch_.path()), 1u);  // no temporary file left
 }
 
 TEST_F(ExtractionCacheTest, AnUnwritableFolderIsAClearError) {

@@ -1,8 +1,10 @@
 /// services/config_loader: YAML over defaults, with clear errors for unknown or mistyped keys.
 #include <gtest/gtest.h>
 
+#include <array>
 #include <filesystem>
 #include <fstream>
+#include <string_view>
 
 #include "core/error.hpp"
 #include "services/config_loader.hpp"
@@ -78,6 +80,22 @@ TEST(ConfigLoader, YamlRoundTripReproducesTheConfig) {
   EXPECT_DOUBLE_EQ(loaded.voxel.resolution_m, 0.25);
   EXPECT_EQ(loaded.synth.seed, 12345u);
   EXPECT_EQ(config_to_yaml(loaded), config_to_yaml(modified));
+}
+
+TEST(ConfigLoader, YamlOfChosenSectionsHoldsThoseAlone) {
+  AppConfig modified;
+  modified.sgm.max_disparity = 96;
+  modified.extraction.target_cells += 40;
+  modified.map.neighbour_gap_m = 0.45;
+  const std::array<std::string_view, 2> sections{"sgm", "extraction"};
+  const std::string yaml = config_to_yaml(modified, sections);
+  EXPECT_EQ(yaml.find("map:"), std::string::npos);
+  EXPECT_EQ(yaml.find("voxel:"), std::string::npos);
+  AppConfig loaded;
+  apply_config_yaml(yaml, "two sections", loaded);
+  EXPECT_EQ(loaded.sgm.max_disparity, 96);
+  EXPECT_EQ(loaded.extraction.target_cells, modified.extraction.target_cells);
+  EXPECT_EQ(loaded.map.neighbour_gap_m, AppConfig{}.map.neighbour_gap_m);  // not in the text
 }
 
 TEST(ConfigLoader, LoadsAFileAndNamesAMissingOne) {

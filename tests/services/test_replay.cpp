@@ -198,6 +198,10 @@ TEST_F(ReplayTest, TheExtractionCacheRerunsTheMappingOnTheSameCells) {
   options.map_path.reset();
   EXPECT_EQ(run_replay(options, other).frames_from_extraction_cache, 0u);
   EXPECT_EQ(run_replay(options, other).frames_from_extraction_cache, 4u);
+  // Map settings do not make the cells: the cache still holds.
+  AppConfig other_map = other;
+  other_map.map.neighbour_gap_m += 0.1;
+  EXPECT_EQ(run_replay(options, other_map).frames_from_extraction_cache, 4u);
   // A corrupt cache file is a clear error naming it; the voxel baseline needs the disparity.
   {
     const auto file = scratch_ / "cache" / "000002.pcx";
