@@ -49,6 +49,9 @@ std::string cell_problem(const Plane3& plane, std::span<const Eigen::Vector3f> v
 
 namespace {
 
+/// No merge unit (yet).
+constexpr std::uint32_t kNoUnit = std::numeric_limits<std::uint32_t>::max();
+
 /// A surface's footprint basis on `plane` around `centre`: its origin half a footprint tile back
 /// along u and v, so that the first cell lands mid-tile, not on the corner of four tiles; at
 /// storage precision (geometry.hpp).
@@ -471,7 +474,6 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
   }
   // Stored cells near each new cell, in one index query: neighbour edges (within the gap) and
   // the cells and surfaces that may cover it (re-observation by coverage, step 5; tol ≥ gap).
-  std::unordered_map<std::uint32_t, std::uint32_t> unit_of_map_cell;
   std::vector<std::vector<const MapCell*>> superseded(fresh.size());  ///< ... and much less precise
   std::vector<std::vector<std::uint32_t>> covering_surfaces(fresh.size());  ///< nearly coplanar
   const bool coverage_rule = config_.redundant_coverage <= 1.0;
@@ -496,6 +498,7 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
     const Surface* surface = nullptr;
     Aabb box;
     std::vector<Eigen::Vector3f> vertices;  ///< empty until decoded (a map polygon has ≥ 3)
+    std::uint32_t unit = kNoUnit;            ///< its merge unit, once it neighbours a new cell
     std::span<const Eigen::Vector3f> polygon() {
       if (vertices.empty()) cell->vertices_m.vertices_into(vertices);
       return vertices;
@@ -708,7 +711,7 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
         auto [met, first_time] = met_cells.try_emplace(id);
         if (first_time) {
           const MapCell& c = cells_.at(id);
-          met->second = {&c, &surfaces_.at(c.surface), bounds_of(c.vertices_m), {}};
+          met->second = {&c, &surfaces_.at(c.surface), bounds_of(c.vertices_m), {}, kNoUnit};
         }
         met_at.push_back(&met->second);
         boxes.push_back(met->second.box);
@@ -737,16 +740,16 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
                                     : polygons_within_m(cell.plane, cell.vertices_m, box, old.plane,
                                                         met_cell.polygon(), old_box, gap));
       if (neighbour && colours_near(cell, old)) {
-        auto [it, inserted] = unit_of_map_cell.try_emplace(id, static_cast<std::uint32_t>(units.size()));
-        if (inserted) {
+        if (met_cell.unit == kNoUnit) {
+          met_cell.unit = static_cast<std::uint32_t>(units.size());
           units.push_back({old.surface, old.plane, met_cell.polygon(), nullptr, polygon_area_m2(met_cell.polygon())});
           if (!labels.contains(old.surface)) {
             wake(surfaces_.at(old.surface));  // its label state needs the moments
             labels.emplace(old.surface, state_of_surface(surface));
           }
         }
-        edges.push_back({static_cast<std::uint32_t>(k), it->second,
-                         std::sqrt(std::min(fresh_area[k], units[it->second].area_m2))});
+        edges.push_back({static_cast<std::uint32_t>(k), met_cell.unit,
+                         std::sqrt(std::min(fresh_area[k], units[met_cell.unit].area_m2))});
       }
       if (!coverage_rule) continue;
       // A re-observation found first is tested for coverage only if step 5 needs it after all.
@@ -1064,12 +1067,14 @@ void GlobalMap::bridge_surfaces(std::span<const Planecell* const> fresh, std::sp
   std::vector<ReachCell> near_cells;
   std::vector<SpatialIndex::BucketRange> near_buckets;
   std::vector<const ReachCell*> walk;  // one surface's candidates (storage reused)
+  std::vector<Aabb> boxes;             // its reaching cells' bounds (storage reused)
+  CheckedSurfaces checked;             // other surfaces tested against it (storage reused)
   for (const auto& [reached_id, ks] : reached) {
     std::uint32_t id = reached_id;  // follows the surface when a merge absorbs it
     if (const auto it = surfaces_.find(id); it == surfaces_.end() || it->second.observations < mature) continue;
-    std::vector<Aabb> boxes;  // each reaching cell's bounds
+    boxes.clear();
     for (std::size_t k : ks) boxes.push_back(fresh_box[k]);
-    CheckedSurfaces checked;  // other surfaces tested against this one
+    checked.clear();
     if (config_.bridge_gap_m > 0.0) {
       if (near_cells.empty()) {  // the first mature surface of the frame
         Aabb frame;
