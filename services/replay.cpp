@@ -553,6 +553,10 @@ nlohmann::json to_json(const ReplayReport& r) {
     for (const auto& c : m.crossed_by_kinds)
       crossed.push_back({{"own_kind", c.own_kind}, {"label_kind", c.label_kind}, {"cells", c.cells}});
     out["merge_vs_ground_truth"]["crossed_planes_by_kinds"] = crossed;
+    auto by_fate = nlohmann::json::array();
+    for (const auto& f : m.crossed_by_fate)
+      by_fate.push_back({{"fate", f.fate}, {"cells", f.cells}, {"crossed", f.crossed}});
+    out["merge_vs_ground_truth"]["crossed_planes_by_fate"] = by_fate;
     if (m.plane_error_cells > 0) {  // GT planes known
       out["merge_vs_ground_truth"]["cross_merged_cells_resolvable"] = m.cross_merged_cells_resolvable;
       out["cell_planes_vs_ground_truth"] = {
@@ -658,6 +662,15 @@ std::string summary_text(const ReplayReport& r) {
         out << (k ? ", " : " ") << m.crossed_by_kinds[k].own_kind << " -> " << m.crossed_by_kinds[k].label_kind << " "
             << 100.0 * m.crossed_by_kinds[k].cells;
       if (shown < m.crossed_by_kinds.size()) out << ", ...";
+      out << "\n";
+    }
+    if (!m.crossed_by_fate.empty()) {
+      out << "  cells by the path that placed them (% of cells / of them across GT planes):";
+      for (std::size_t k = 0; k < m.crossed_by_fate.size(); ++k) {
+        const auto& f = m.crossed_by_fate[k];
+        out << (k ? ", " : " ") << f.fate << " " << 100.0 * f.cells << " / "
+            << (f.cells > 0.0 ? 100.0 * f.crossed / f.cells : 0.0);
+      }
       out << "\n";
     }
     if (m.plane_error_cells > 0) {

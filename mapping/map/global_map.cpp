@@ -105,6 +105,19 @@ void set_moments(Surface& surface, const PlaneMoments& moments) {
   surface.detail->moment_outer = moments.sum_outer;
 }
 
+const char* fate_name(CellFate fate) {
+  switch (fate) {
+    case CellFate::kRejected: return "rejected";
+    case CellFate::kNewSurface: return "new surface";
+    case CellFate::kStored: return "stored";
+    case CellFate::kFusedFoundFirst: return "found first";
+    case CellFate::kFusedByFootprint: return "fused by footprint";
+    case CellFate::kFusedByCoverage: return "fused by coverage";
+    case CellFate::kCoveredElsewhere: return "covered by another surface";
+  }
+  return "unknown";
+}
+
 SurfaceDetail rebuild_detail(const Surface& surface, std::span<const MapCell* const> cells,
                              double resolution_m) {
   SurfaceDetail detail;
@@ -402,6 +415,7 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
   std::vector<double> fresh_area;
   std::vector<Aabb> fresh_box;  ///< each new cell's bounds, computed once
   report.cell_surfaces.assign(cells_world.size(), kNoSurface);
+  report.cell_fates.assign(cells_world.size(), CellFate::kRejected);
   std::unordered_map<std::uint32_t, std::uint32_t> unit_of_extraction_id;
   unit_of_extraction_id.reserve(cells_world.size());
   for (std::size_t i = 0; i < cells_world.size(); ++i) {
@@ -851,6 +865,7 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
       observe(covering_surface, frame_id);
       touched.insert(cover_surface);
       report.cell_surfaces[fresh_input[k]] = cover_surface;
+      report.cell_fates[fresh_input[k]] = CellFate::kCoveredElsewhere;
       ++report.fused_cells;
       ++report.redundant_cells;
       continue;
@@ -889,9 +904,15 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
     if (had_footprint && !supersedes &&
         (redundant || added < config_.fuse_new_area_fraction * area)) {
       ++report.fused_cells;
-      if (redundant && added >= config_.fuse_new_area_fraction * area) ++report.redundant_cells;
+      const bool by_coverage = redundant && added >= config_.fuse_new_area_fraction * area;
+      if (by_coverage) ++report.redundant_cells;
+      report.cell_fates[fresh_input[k]] = settled_by_footprint && reobserved[k].surface == root
+                                              ? CellFate::kFusedFoundFirst
+                                          : by_coverage ? CellFate::kFusedByCoverage
+                                                        : CellFate::kFusedByFootprint;
       continue;
     }
+    report.cell_fates[fresh_input[k]] = created ? CellFate::kNewSurface : CellFate::kStored;
     // Stored cells that nearer, more precise new cells cover are replaced by them (below).
     for (const MapCell* old : superseded[k]) {
       auto& entry = superseding[old->id];

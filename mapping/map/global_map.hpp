@@ -113,6 +113,26 @@ struct SurfaceMerge {
   bool operator==(const SurfaceMerge&) const = default;
 };
 
+/// What integrate() did with one input cell (MergeReport::cell_fates): the path that placed it.
+enum class CellFate : std::uint8_t {
+  kRejected,    ///< not integrated (planeless, degenerate, too far or too noisy)
+  kNewSurface,  ///< stored as the first cell of a surface it created
+  kStored,      ///< stored in a surface that existed (its CRF label, possibly replacing cells)
+  /// Fused into the surface found before the neighbour search
+  /// (MapConfig::prefuse_reobservations), the CRF agreeing.
+  kFusedFoundFirst,
+  /// Fused into its CRF label's surface, adding less than fuse_new_area_fraction of its area to
+  /// the footprint.
+  kFusedByFootprint,
+  /// Fused into its CRF label's surface as covered (MapConfig::redundant_coverage), though it
+  /// added more than that fraction.
+  kFusedByCoverage,
+  /// Fused, as covered, into another surface than its CRF label (the CRF gave it a new label).
+  kCoveredElsewhere,
+};
+/// The fate's name as reports print it ("fused by footprint").
+const char* fate_name(CellFate fate);
+
 /// What one integrate() call changed.
 struct MergeReport {
   std::uint64_t frame_id = 0;
@@ -146,6 +166,9 @@ struct MergeReport {
   /// the end of this frame (stored or fused), kNoSurface when rejected. Later surface merges
   /// move it on; follow `surface_merges` of later frames.
   std::vector<std::uint32_t> cell_surfaces;
+  /// Per input cell (same order): the path that placed it (a diagnostic: merge metrics break the
+  /// cells merged across GT planes down by it).
+  std::vector<CellFate> cell_fates;
   double merge_ms = 0.0;                        ///< wall time of integrate()
 };
 

@@ -47,7 +47,9 @@ void MergeEvaluator::add_frame(const cv::Mat& labels, const cv::Mat& gt_surface_
     const Eigen::Vector3d centroid = map::vertex_centroid(cells_world[i].vertices_m);
     samples_.push_back({best->first, static_cast<float>(map::polygon_area_m2(cells_world[i].vertices_m)),
                         report.cell_surfaces[i], cells_world[i].depth_sigma_m, centroid.cast<float>(),
-                        static_cast<float>(best->second) / static_cast<float>(totals[i])});
+                        static_cast<float>(best->second) / static_cast<float>(totals[i]),
+                        report.cell_fates.size() == cells_world.size() ? std::optional(report.cell_fates[i])
+                                                                       : std::nullopt});
     if (const auto plane = gt_planes_.find(best->first); plane != gt_planes_.end() && !cells_world[i].vertices_m.empty()) {
       // θ' with σ = 1 m: the RMS distance of the vertices to the GT plane, in metres.
       plane_errors_m_.push_back(static_cast<float>(map::plane_residual(plane->second, cells_world[i].vertices_m, 1.0)));
@@ -194,10 +196,17 @@ MergeMetrics MergeEvaluator::finish() const {
   };
   std::size_t crossed = 0, crossed_planes = 0, crossed_resolvable = 0, crossed_boundary = 0;
   std::map<std::pair<std::string, std::string>, std::size_t> crossed_kinds;
+  std::map<map::CellFate, std::pair<std::size_t, std::size_t>> by_fate;  ///< fate → (cells, crossed)
   for (std::size_t k = 0; k < kept.size(); ++k) {
     const std::uint16_t dominant = dominant_gt.at(final_labels[k]);
     if (dominant != kept[k]->gt) ++crossed;
-    if (group(dominant) != group(kept[k]->gt)) {
+    const bool crossed_plane = group(dominant) != group(kept[k]->gt);
+    if (kept[k]->fate) {
+      auto& [cells, crossed_cells] = by_fate[*kept[k]->fate];
+      ++cells;
+      crossed_cells += crossed_plane;
+    }
+    if (crossed_plane) {
       ++crossed_planes;
       ++crossed_kinds[{kind_of(kept[k]->gt), kind_of(dominant)}];
       if (resolvable(*kept[k], dominant)) ++crossed_resolvable;
@@ -209,6 +218,10 @@ MergeMetrics MergeEvaluator::finish() const {
         {kinds.first, kinds.second, static_cast<double>(count) / static_cast<double>(kept.size())});
   std::stable_sort(m.crossed_by_kinds.begin(), m.crossed_by_kinds.end(),
                    [](const auto& a, const auto& b) { return a.cells > b.cells; });
+  for (const auto& [fate, counts] : by_fate)
+    m.crossed_by_fate.push_back({map::fate_name(fate),
+                                 static_cast<double>(counts.first) / static_cast<double>(kept.size()),
+                                 static_cast<double>(counts.second) / static_cast<double>(kept.size())});
   m.cells = kept.size();
   if (!kept.empty()) {
     m.cross_merged_cells = static_cast<double>(crossed) / static_cast<double>(kept.size());

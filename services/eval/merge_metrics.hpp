@@ -4,6 +4,7 @@
 /// of cells merged across different GT surfaces).
 #include <cstdint>
 #include <opencv2/core/mat.hpp>
+#include <optional>
 #include <span>
 #include <string>
 #include <unordered_map>
@@ -118,6 +119,16 @@ struct MergeMetrics {
     double cells = 0.0;
   };
   std::vector<CrossedKinds> crossed_by_kinds;
+  /// The counted cells by the path that placed them (map::MergeReport::cell_fates): `cells` their
+  /// share of all counted cells, `crossed` the share (of all counted cells) of those merged across
+  /// GT planes, so the `crossed` shares add up to cross_merged_cells_between_planes. Only for
+  /// cells whose report gave fates; in map::CellFate order, fates with no cell left out.
+  struct CrossedFate {
+    std::string fate;  ///< map::fate_name
+    double cells = 0.0;
+    double crossed = 0.0;
+  };
+  std::vector<CrossedFate> crossed_by_fate;
 };
 
 /// GT plane groups of a synthetic scene: surfaces a and b share a group when their planes agree
@@ -169,6 +180,7 @@ class MergeEvaluator {
     float depth_sigma_m = 0.0f;              ///< the cell's σ_Z
     Eigen::Vector3f centroid = Eigen::Vector3f::Zero();  ///< its vertex centroid (world)
     float purity = 1.0f;  ///< share of the cell's pixels on `gt` (≥ 0.5)
+    std::optional<map::CellFate> fate;  ///< none when the report gave no fates
   };
   std::uint32_t final_label(std::uint32_t label) const;
 

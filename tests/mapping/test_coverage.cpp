@@ -148,6 +148,7 @@ TEST(Coverage, ReobservationGoesToTheSurfaceCoveringMostOfIt) {
   const auto on_a = map.integrate(1, Pose::Identity(), std::vector{road(0, 0, 1.0f, 30)});
   ASSERT_EQ(on_a.redundant_cells, 1u);
   EXPECT_EQ(on_a.cell_surfaces[0], a);
+  EXPECT_EQ(on_a.cell_fates[0], CellFate::kCoveredElsewhere);  // the CRF gave it a label of its own
   // x ∈ [0.3, 1.3] lies 70 % on B.
   const auto on_b = map.integrate(2, Pose::Identity(), std::vector{road(0, 0.3f, 1.0f, 30)});
   ASSERT_EQ(on_b.redundant_cells, 1u);
@@ -155,6 +156,26 @@ TEST(Coverage, ReobservationGoesToTheSurfaceCoveringMostOfIt) {
   EXPECT_EQ(map.cells().size(), 2u);
   EXPECT_EQ(map.surfaces().at(a).observations, 2u);
   EXPECT_EQ(map.surfaces().at(b).observations, 2u);
+}
+
+/// A re-observation in its own surface's label that adds more than fuse_new_area_fraction to that
+/// surface's footprint, but whose rest lies on a coplanar neighbour of another colour, is fused
+/// into its own surface by coverage.
+TEST(Coverage, AReobservationCoveredPartlyByAnotherSurfaceIsFusedIntoItsOwn) {
+  GlobalMap map;
+  // A at x ∈ [0, 1] and B at x ∈ [1, 2], colours far apart: two surfaces.
+  (void)map.integrate(0, Pose::Identity(), std::vector{road(0, 0, 1.0f, 3), road(1, 1.0f, 1.0f, 60)});
+  ASSERT_EQ(map.cells().size(), 2u);
+  const std::uint32_t a = map.cells().at(0).surface;
+  ASSERT_NE(a, map.cells().at(1).surface);
+  // x ∈ [0.5, 1.5] in A's colour: the CRF gives it A's label; half of it is new to A's footprint
+  // (≥ 0.25), but A and B together cover all of it.
+  const auto r = map.integrate(1, Pose::Identity(), std::vector{road(0, 0.5f, 1.0f, 3)});
+  EXPECT_EQ(r.redundant_cells, 1u);
+  EXPECT_TRUE(r.added_cells.empty());
+  EXPECT_EQ(r.cell_surfaces[0], a);
+  EXPECT_EQ(r.cell_fates[0], CellFate::kFusedByCoverage);
+  EXPECT_EQ(map.cells().size(), 2u);
 }
 
 /// Space the map holds only through a fused (unstored) observation still counts: coverage reads
@@ -271,11 +292,13 @@ TEST(Coverage, AReobservationIsFoundBeforeTheNeighbourSearch) {
     MapConfig config;
     config.prefuse_reobservations = first;
     GlobalMap map(config);
-    (void)map.integrate(0, Pose::Identity(), std::vector{road(0, 0)});  // x ∈ [0, 1], stored
+    // x ∈ [0, 1], stored.
+    EXPECT_EQ(map.integrate(0, Pose::Identity(), std::vector{road(0, 0)}).cell_fates[0], CellFate::kNewSurface);
     const std::uint32_t surface = map.cells().at(0).surface;
     // x ∈ [0.2, 1.2]: 0.2 m² new (< 0.25 of its area), same colour.
     const auto inside = map.integrate(1, Pose::Identity(), std::vector{road(0, 0.2f)});
     EXPECT_EQ(inside.prefused_cells, first ? 1u : 0u);
+    EXPECT_EQ(inside.cell_fates[0], first ? CellFate::kFusedFoundFirst : CellFate::kFusedByFootprint);
     EXPECT_EQ(inside.fused_cells, 1u);
     EXPECT_TRUE(inside.added_cells.empty());
     EXPECT_EQ(inside.cell_surfaces[0], surface);
@@ -286,9 +309,11 @@ TEST(Coverage, AReobservationIsFoundBeforeTheNeighbourSearch) {
     EXPECT_EQ(other_colour.prefused_cells, 0u);
     EXPECT_EQ(other_colour.redundant_cells, 1u);
     EXPECT_EQ(other_colour.cell_surfaces[0], surface);
+    EXPECT_EQ(other_colour.cell_fates[0], CellFate::kCoveredElsewhere);
     // x ∈ [0.7, 1.7]: half of it new space, stored; the CRF still gives it the surface's label.
     const auto beyond = map.integrate(3, Pose::Identity(), std::vector{road(0, 0.7f)});
     EXPECT_EQ(beyond.prefused_cells, 0u);
+    EXPECT_EQ(beyond.cell_fates[0], CellFate::kStored);
     EXPECT_EQ(beyond.added_cells.size(), 1u);
     EXPECT_EQ(beyond.cell_surfaces[0], surface);
     EXPECT_EQ(map.cells().size(), 2u);

@@ -90,6 +90,7 @@ TEST(GlobalMapTest, RejectsCellsBeyondMaxRange) {
   const auto report = map.integrate(1, Pose::Identity(), cells);
   EXPECT_EQ(report.rejected_cells, 1u);
   EXPECT_EQ(map.cells().size(), 1u);
+  EXPECT_EQ(report.cell_fates, (std::vector{CellFate::kNewSurface, CellFate::kRejected}));
 }
 
 /// Three cells at 10 m, apart from each other (x = 0, 5, −5 m).

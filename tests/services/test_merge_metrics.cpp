@@ -6,6 +6,8 @@
 #include <cmath>
 #include <functional>
 #include <numbers>
+#include <string>
+#include <tuple>
 
 #include "core/error.hpp"
 #include "services/eval/merge_metrics.hpp"
@@ -160,6 +162,40 @@ TEST(MergeMetrics, CrossMergedBoundaryCellsAreThoseUnder90PercentOnTheirGtSurfac
   ASSERT_EQ(m.cells, 4u);
   EXPECT_NEAR(m.cross_merged_cells_between_planes, 2.0 / 4.0, 1e-9);
   EXPECT_NEAR(m.cross_merged_cells_boundary, 1.0 / 4.0, 1e-9);
+}
+
+TEST(MergeMetrics, CellsAreBrokenDownByThePathThatPlacedThem) {
+  // Label 10 over two frames: GT 1 cells (fused, found first) dominate it; frame 1's GT 2 cell was
+  // covered by it though the CRF labelled it apart, frame 2's GT 3 cell was stored in it. Both
+  // are across GT planes: the stored and the covered path hold a quarter of the cells each, all
+  // crossed; the found-first path half, none crossed.
+  MergeEvaluator eval;
+  map::MergeReport report;
+  report.cell_surfaces = {10, 10};
+  report.cell_fates = {map::CellFate::kFusedFoundFirst, map::CellFate::kCoveredElsewhere};
+  cv::Mat labels, gt;
+  halves(labels, gt, 0, 1, 1, 2);
+  eval.add_frame(labels, gt, std::vector<Planecell>{square(0, 2.0f), square(1, 1.0f)}, report);
+  report.cell_fates = {map::CellFate::kFusedFoundFirst, map::CellFate::kStored};
+  halves(labels, gt, 0, 1, 1, 3);
+  eval.add_frame(labels, gt, std::vector<Planecell>{square(0, 2.0f), square(1, 1.0f)}, report);
+  const MergeMetrics m = eval.finish();
+  ASSERT_EQ(m.cells, 4u);
+  ASSERT_EQ(m.crossed_by_fate.size(), 3u);  // in map::CellFate order
+  const std::vector<std::tuple<std::string, double, double>> expected = {
+      {"stored", 0.25, 0.25}, {"found first", 0.5, 0.0}, {"covered by another surface", 0.25, 0.25}};
+  for (std::size_t k = 0; k < expected.size(); ++k) {
+    SCOPED_TRACE(k);
+    EXPECT_EQ(m.crossed_by_fate[k].fate, std::get<0>(expected[k]));
+    EXPECT_NEAR(m.crossed_by_fate[k].cells, std::get<1>(expected[k]), 1e-9);
+    EXPECT_NEAR(m.crossed_by_fate[k].crossed, std::get<2>(expected[k]), 1e-9);
+  }
+  EXPECT_NEAR(m.cross_merged_cells_between_planes, 0.5, 1e-9);  // the crossed shares' sum
+  // A report without fates gives no breakdown.
+  MergeEvaluator no_fates;
+  report.cell_fates.clear();
+  no_fates.add_frame(labels, gt, std::vector<Planecell>{square(0, 2.0f), square(1, 1.0f)}, report);
+  EXPECT_TRUE(no_fates.finish().crossed_by_fate.empty());
 }
 
 TEST(MergeMetrics, CrossMergesAcrossGtPlanesAreBrokenDownByTheTwoKinds) {

@@ -83,6 +83,19 @@ TEST_F(ReplayTest, MapsEveryFrameAndStoresThem) {
   EXPECT_NEAR(kinds_area, 1.0, 1e-9);
   EXPECT_NEAR(kinds_lost, 1.0 - report.merge_metrics->area_one_label, 1e-9);
   ASSERT_EQ(json["merge_vs_ground_truth"]["by_kind"].size(), report.merge_metrics->by_kind.size());
+  // Every counted cell has the path that placed it: the paths' shares add up to all cells, their
+  // crossed shares to the cells across GT planes; a rejected cell is never counted.
+  double fate_cells = 0.0, fate_crossed = 0.0;
+  for (const auto& f : report.merge_metrics->crossed_by_fate) {
+    EXPECT_NE(f.fate, "rejected");
+    EXPECT_LE(f.crossed, f.cells);
+    fate_cells += f.cells;
+    fate_crossed += f.crossed;
+  }
+  EXPECT_NEAR(fate_cells, 1.0, 1e-9);
+  EXPECT_NEAR(fate_crossed, report.merge_metrics->cross_merged_cells_between_planes, 1e-9);
+  EXPECT_EQ(json["merge_vs_ground_truth"]["crossed_planes_by_fate"].size(),
+            report.merge_metrics->crossed_by_fate.size());
   // The scene's weakly textured surfaces (its glass windows at least) get their own share: some
   // of the GT area, split into one label and not.
   std::size_t weak_in_scene = 0;
