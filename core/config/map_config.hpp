@@ -140,7 +140,8 @@ struct MapConfig {
   /// The ground join's pair: one surface at least bridge_long_min_area_m2, the other at least this
   /// (m²), both mature and level (either order: the larger at least the larger threshold). A
   /// well-observed 10–20 m² piece of a sidewalk left between parked cars otherwise never joins
-  /// the sidewalk it lies in line with (the tests of one plane still apply). docs/PERFORMANCE.md, "The ground join's own colour test and smaller pieces".
+  /// the sidewalk it lies in line with (the tests of one plane still apply). docs/PERFORMANCE.md,
+  /// "The ground join's own colour test and smaller pieces".
   double ground_join_min_area_m2 = 10.0;
   // --- fusion and index -----------------------------------------------------------------------
   /// Re-observations are found before the neighbour search: a new cell within neighbour_gap_m

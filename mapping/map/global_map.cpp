@@ -809,6 +809,7 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
     };
     std::optional<bool> covers_superseded;  ///< covers_at_least(cell, superseded[k]), once computed
     bool settled_by_footprint = false;
+    bool found_first = false;  ///< settled by the raster of the re-observation search
     if (root_it != surfaces_.end()) {
       wake(root_it->second);  // a CRF label already: live
       const SurfaceDetail& detail = *root_it->second.detail;
@@ -817,7 +818,7 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
         // step's earlier cells), so the cell still adds less than the fraction; its superseded
         // cells are not collected.
         raster = std::move(reobserved[k].raster);
-        settled_by_footprint = true;
+        settled_by_footprint = found_first = true;
         ++report.prefused_cells;
       } else if (raster = raster_on(detail);
                  !detail.footprint.empty() &&
@@ -906,8 +907,7 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
       ++report.fused_cells;
       const bool by_coverage = redundant && added >= config_.fuse_new_area_fraction * area;
       if (by_coverage) ++report.redundant_cells;
-      report.cell_fates[fresh_input[k]] = settled_by_footprint && reobserved[k].surface == root
-                                              ? CellFate::kFusedFoundFirst
+      report.cell_fates[fresh_input[k]] = found_first   ? CellFate::kFusedFoundFirst
                                           : by_coverage ? CellFate::kFusedByCoverage
                                                         : CellFate::kFusedByFootprint;
       continue;

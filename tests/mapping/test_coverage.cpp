@@ -41,11 +41,13 @@ void expect_stored_or_fused_into_road(GlobalMap& map, const Pose& pose, const Pl
     EXPECT_EQ(r.redundant_cells, 0u);
     EXPECT_EQ(r.added_cells.size(), 1u);
     EXPECT_NE(r.cell_surfaces[0], road_surface);
+    EXPECT_EQ(r.cell_fates[0], CellFate::kNewSurface);
     EXPECT_EQ(map.cells().size(), 2u);
   } else {
     EXPECT_EQ(r.redundant_cells, 1u);
     EXPECT_TRUE(r.added_cells.empty());
     EXPECT_EQ(r.cell_surfaces[0], road_surface);
+    EXPECT_EQ(r.cell_fates[0], CellFate::kCoveredElsewhere);  // the CRF kept it apart
     EXPECT_EQ(map.cells().size(), 1u);
   }
 }
