@@ -5,7 +5,8 @@ namespace planecell {
 
 /// Global planecell map and incremental CRF merging (paper §5.2, Eq. CRFFunction).
 /// The "variation range" of the circular greedy merging is (max_normal_angle_deg,
-/// max_plane_distance_m, min_colour_similarity): a pair outside it is never merged.
+/// max_plane_distance_m, min_colour_similarity, max_chromaticity_distance): a pair outside it is
+/// never merged.
 struct MapConfig {
   /// Cells whose vertex centroid lies farther than this from the camera are not mapped. Stereo depth
   /// noise grows as Z²: at 20 m (KITTI rig) a cell is ~0.1–0.3 m off its true plane, about the step
@@ -30,6 +31,13 @@ struct MapConfig {
   double max_normal_angle_deg = 10.0;  ///< max angle between the two surfaces' normals
   double max_plane_distance_m = 0.08;  ///< smallest plane-distance tolerance d_min (m)
   double min_colour_similarity = 0.3;  ///< min histogram intersection δ ∈ [0, 1]
+  /// Two labels whose mean chromaticities (histogram_chromaticity: the mean colour's
+  /// (R, G, B)/(R + G + B)) lie farther apart than this (Euclidean) are out of the range too
+  /// (0 = off). Shading and a texture's grey modulation scale R, G and B alike: they spread a
+  /// surface's histogram along one line through black, wide enough on a textured facade for the
+  /// intersection to pass a dark door of another paint, but leave its chromaticity unchanged.
+  /// 0.06 is about the chromaticity step between a brown door and a beige facade.
+  double max_chromaticity_distance = 0.06;
   /// A new cell meets a stored cell (a neighbour edge for the CRF, the re-observation search, a
   /// stored cell that may cover it) only when their mean colours lie within this Euclidean RGB
   /// distance (levels 0–255 a channel; 0 = off). The CRF's colour term compares whole labels'
@@ -300,6 +308,7 @@ void visit_fields(MapConfig& c, Visitor&& visit) {
   visit("max_normal_angle_deg", c.max_normal_angle_deg);
   visit("max_plane_distance_m", c.max_plane_distance_m);
   visit("min_colour_similarity", c.min_colour_similarity);
+  visit("max_chromaticity_distance", c.max_chromaticity_distance);
   visit("neighbour_max_rgb_distance", c.neighbour_max_rgb_distance);
   visit("residual_scale_m", c.residual_scale_m);
   visit("depth_sigma_factor", c.depth_sigma_factor);

@@ -118,6 +118,24 @@ double colour_similarity(const ColourHistogram& a, const ColourHistogram& b) {
   return (sum[0] + sum[1]) + (sum[2] + sum[3]);
 }
 
+Eigen::Vector3d histogram_chromaticity(const ColourHistogram& histogram) {
+  // Bin q = 16·l_R + 4·l_G + l_B; level l's centre is 31.5 + 64·l (mapping/planecell's soft bins).
+  // Σ h and Σ h·l per channel, over the 16 runs of four bins sharing (l_R, l_G).
+  static_assert(kColourHistogramBins == 64);
+  double mass = 0.0;
+  Eigen::Vector3d levels = Eigen::Vector3d::Zero();
+  for (int r = 0; r < 4; ++r)
+    for (int g = 0; g < 4; ++g) {
+      const float* run = histogram.data() + 16 * r + 4 * g;  // l_B = 0, 1, 2, 3
+      const double run_mass = (double{run[0]} + run[1]) + (double{run[2]} + run[3]);
+      mass += run_mass;
+      levels += Eigen::Vector3d(r * run_mass, g * run_mass, double{run[1]} + 2.0 * run[2] + 3.0 * run[3]);
+    }
+  if (!(mass > 0.0)) return Eigen::Vector3d::Constant(1.0 / 3.0);
+  const Eigen::Vector3d sum = (31.5 * mass + 64.0 * levels.array()).matrix();
+  return sum / sum.sum();
+}
+
 double plane_residual(const Plane3& plane_i, std::span<const Eigen::Vector3f> vertices_j,
                       double sigma_m) {
   return rms_distance_m(plane_i, vertices_j) / sigma_m;
@@ -236,6 +254,7 @@ LabelState state_of_cell(const Planecell& cell, double area_m2, double range_sig
   s.moments.add_polygon(cell.vertices_m, area_m2 / (sigma * sigma));
   s.range_information = area_m2 / (range_sigma * range_sigma);
   s.histogram = cell.histogram;
+  s.chromaticity = histogram_chromaticity(s.histogram);
   s.histogram_weight_m2 = area_m2;
   s.area_m2 = area_m2;
   s.observed_area_m2 = area_m2;
@@ -250,6 +269,7 @@ void fold_label(LabelState& into, const LabelState& from) {
     for (int q = 0; q < kColourHistogramBins; ++q)
       into.histogram[q] = static_cast<float>(
           (into.histogram[q] * into.histogram_weight_m2 + from.histogram[q] * from.histogram_weight_m2) / w);
+  into.chromaticity = histogram_chromaticity(into.histogram);
   into.histogram_weight_m2 = w;
   into.area_m2 += from.area_m2;
   into.observed_area_m2 += from.observed_area_m2;
@@ -326,6 +346,8 @@ EdgeEvaluation CrfMerger::evaluate_range(const MergeUnit& a, const LabelState& l
   if (!in_range) return ev;  // out of the variation range: the colour is not needed
   ev.colour_similarity = colour_similarity(lo.histogram, hi.histogram);
   ev.in_range = ev.colour_similarity >= config_.min_colour_similarity;
+  if (ev.in_range && config_.max_chromaticity_distance > 0.0)
+    ev.in_range = (lo.chromaticity - hi.chromaticity).norm() <= config_.max_chromaticity_distance;
   return ev;
 }
 

@@ -31,6 +31,14 @@ std::vector<LabelEdge> label_adjacency(const cv::Mat& labels);
 /// normalised to sum 1 (1 = identical colour distributions).
 double colour_similarity(const ColourHistogram& a, const ColourHistogram& b);
 
+/// Chromaticity of a histogram's mean colour m: m / (m_R + m_G + m_B), with m = Σ_q h(q)·c(q) /
+/// Σ_q h(q) over the bin centres c(q), one level l = 0..3 per channel at 31.5 + 64·l (bin
+/// q = 16·l_R + 4·l_G + l_B, mapping/planecell's soft bins). Soft binning splits a value linearly
+/// between its two nearest centres, so m is the members' exact mean RGB for values in
+/// [31.5, 223.5] (darker or brighter ones count at the end centres). Scaling R, G and B alike
+/// (shading, a texture's grey modulation) leaves it unchanged. Grey (⅓, ⅓, ⅓) for an empty histogram.
+Eigen::Vector3d histogram_chromaticity(const ColourHistogram& histogram);
+
 /// θ'_i(x_j): RMS distance of x_j's polygon vertices to x_i's plane, in units of σ:
 ///   θ'_i(x_j) = sqrt( (1/K) Σ_k (n_i·v_jk + e_i)² ) / σ   (dimensionless; σ = residual_scale_m).
 double plane_residual(const Plane3& plane_i, std::span<const Eigen::Vector3f> vertices_j,
@@ -89,6 +97,9 @@ struct LabelState {
   Plane3 plane;
   PlaneMoments moments;         ///< information-weighted (moments.weight = Σ area_i / σ_i²)
   ColourHistogram histogram{};  ///< weighted mean of the members' histograms
+  /// histogram_chromaticity(histogram), kept with it (state_of_cell, fold_label and the map's
+  /// surface states set both): the variation range compares it for every edge.
+  Eigen::Vector3d chromaticity = Eigen::Vector3d::Constant(1.0 / 3.0);
   double histogram_weight_m2 = 0.0;
   double area_m2 = 0.0;           ///< area the label covers (a surface: its footprint)
   double observed_area_m2 = 0.0;  ///< Σ area_i of every member observation

@@ -148,6 +148,7 @@ LabelState state_of_surface(const Surface& surface) {
   s.plane = surface.plane;
   s.moments = moments_of(surface);
   s.histogram = expand(surface.histogram);
+  s.chromaticity = histogram_chromaticity(s.histogram);
   s.histogram_weight_m2 = surface.histogram_weight_m2;
   s.area_m2 = surface.area_m2;
   s.observed_area_m2 = surface.observed_area_m2;
@@ -279,6 +280,9 @@ GlobalMap::GlobalMap(const MapConfig& config)
   if (!(config.bridge_max_cell_distance_m >= 0.0) || !std::isfinite(config.bridge_max_cell_distance_m))
     throw ConfigError("map.bridge_max_cell_distance_m: must be a finite distance >= 0 (0 = off), got " +
                       std::to_string(config.bridge_max_cell_distance_m));
+  if (!(config.max_chromaticity_distance >= 0.0) || !std::isfinite(config.max_chromaticity_distance))
+    throw ConfigError("map.max_chromaticity_distance: must be a finite chromaticity distance >= 0 (0 = off), got " +
+                      std::to_string(config.max_chromaticity_distance));
   if (!(config.neighbour_max_rgb_distance >= 0.0) || !std::isfinite(config.neighbour_max_rgb_distance))
     throw ConfigError("map.neighbour_max_rgb_distance: must be a finite RGB distance >= 0 (0 = off), got " +
                       std::to_string(config.neighbour_max_rgb_distance));

@@ -155,6 +155,25 @@ TEST(EnergyTerms, MatchHandComputedValues) {
   EXPECT_NEAR(boundary_potential(3.0, 1.0), 1.5, 1e-12);
 }
 
+/// histogram_chromaticity: the mean colour over the bin centres 31.5 + 64·l (bin 16·l_R + 4·l_G
+/// + l_B) divided by its channel sum, computed by hand.
+TEST(EnergyTerms, ChromaticityIsTheHistogramsMeanColourOverItsSum) {
+  ColourHistogram one{};
+  one[16 * 2 + 4 * 1 + 0] = 1.0f;  // levels (2, 1, 0): centres (159.5, 95.5, 31.5)
+  EXPECT_TRUE(histogram_chromaticity(one).isApprox(Eigen::Vector3d(159.5, 95.5, 31.5) / 286.5, 1e-12));
+  // R = 127.5 lies halfway between the centres of levels 1 and 2: soft binning puts half of it in
+  // each, and the mean comes back exactly, whatever the histogram's total mass.
+  ColourHistogram split{};
+  split[16 * 1 + 4 * 1 + 1] = 1.5f;  // (95.5, 95.5, 95.5)
+  split[16 * 2 + 4 * 1 + 1] = 1.5f;  // (159.5, 95.5, 95.5)
+  EXPECT_TRUE(histogram_chromaticity(split).isApprox(Eigen::Vector3d(127.5, 95.5, 95.5) / 318.5, 1e-12));
+  // Greys of any brightness, and no colour at all, are (1/3, 1/3, 1/3).
+  ColourHistogram greys{};
+  greys[0] = 0.25f, greys[21] = 0.5f, greys[63] = 0.25f;  // levels (0,0,0), (1,1,1), (3,3,3)
+  EXPECT_TRUE(histogram_chromaticity(greys).isApprox(Eigen::Vector3d::Constant(1.0 / 3.0), 1e-12));
+  EXPECT_TRUE(histogram_chromaticity(ColourHistogram{}).isApprox(Eigen::Vector3d::Constant(1.0 / 3.0), 1e-12));
+}
+
 TEST(UnionFindTest, SmallerLabelBecomesRoot) {
   UnionFind uf;
   EXPECT_EQ(uf.find(9), 9u);
@@ -185,8 +204,8 @@ TEST(PlaneMomentsTest, FitRecoversTiltedPlane) {
 class PairMerge : public ::testing::TestWithParam<bool> {
  protected:
   /// Integrates two cells in one frame; returns whether they ended on one surface.
-  bool merged(const Planecell& a, const Planecell& b) {
-    GlobalMap map;
+  bool merged(const Planecell& a, const Planecell& b, const MapConfig& config = {}) {
+    GlobalMap map(config);
     const std::vector<Planecell> cells = {a, b};
     const std::vector<LabelEdge> adjacency = {{a.id, b.id, 20}};
     const auto report = map.integrate(1, Pose::Identity(), cells,
@@ -215,6 +234,31 @@ TEST_P(PairMerge, ParallelOffsetCurbDoesNotMerge) {
 
 TEST_P(PairMerge, DifferentColourDoesNotMerge) {
   EXPECT_FALSE(merged(rect_cell(0, {0, 1.5f, 5}, kX, kZ, 3), rect_cell(1, {1, 1.5f, 5}, kX, kZ, 40)));
+}
+
+/// A road square whose histogram is half at `first_bin` and half at `second_bin`.
+Planecell two_tone(std::uint32_t id, float x, int first_bin, int second_bin) {
+  Planecell cell = rect_cell(id, {x, 1.5f, 5}, kX, kZ, first_bin);
+  cell.histogram[first_bin] = 0.5f;
+  cell.histogram[second_bin] = 0.5f;
+  return cell;
+}
+
+/// Histograms sharing half their mass on a grey (levels (1, 1, 1), bin 21; intersection 0.5 ≥
+/// min_colour_similarity 0.3), the other half reddish on one (levels (2, 1, 0), bin 36) and bluish
+/// on the other ((0, 1, 2), bin 6): mean colours (127.5, 95.5, 63.5) and (63.5, 95.5, 127.5),
+/// chromaticities 0.315 apart (> max_chromaticity_distance 0.06): two paints, not merged; with the
+/// chromaticity test off the histograms alone merge them. A grey half brighter (levels (2, 2, 2))
+/// on one and darker ((0, 0, 0)) on the other is one grey paint more and less lit: merged.
+TEST_P(PairMerge, OverlappingHistogramsOfAnotherPaintDoNotMerge) {
+  EXPECT_FALSE(merged(two_tone(0, 0, 21, 36), two_tone(1, 1, 21, 6)));
+  MapConfig off;
+  off.max_chromaticity_distance = 0.0;
+  EXPECT_TRUE(merged(two_tone(0, 0, 21, 36), two_tone(1, 1, 21, 6), off));
+  EXPECT_TRUE(merged(two_tone(0, 0, 21, 42), two_tone(1, 1, 21, 0)));
+  MapConfig bad;
+  bad.max_chromaticity_distance = -0.1;
+  EXPECT_THROW(GlobalMap{bad}, ConfigError);
 }
 
 TEST_P(PairMerge, SlightlyTiltedNeighbourWithinRangeMerges) {
