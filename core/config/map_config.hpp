@@ -36,14 +36,19 @@ struct MapConfig {
   /// (0 = off). Shading and a texture's grey modulation scale R, G and B alike: they spread a
   /// surface's histogram along one line through black, wide enough on a textured facade for the
   /// intersection to pass a dark door of another paint, but leave its chromaticity unchanged.
-  /// 0.06 is about the chromaticity step between a brown door and a beige facade.
+  /// The synthetic streets' door paint lies 0.075–0.16 from five of their six facade paints (0.03
+  /// from the sixth); 0.045–0.06 cut the cells merged across GT planes most there while keeping
+  /// the area in one label (docs/PERFORMANCE.md). A surface's
+  /// footprint covers a new cell (MapConfig::redundant_coverage) only when the cell's own
+  /// chromaticity is as near the surface's.
   double max_chromaticity_distance = 0.06;
   /// A new cell meets a stored cell (a neighbour edge for the CRF, the re-observation search, a
   /// stored cell that may cover it) only when their mean colours lie within this Euclidean RGB
   /// distance (levels 0–255 a channel; 0 = off). The CRF's colour term compares whole labels'
   /// histograms, which a textured facade spreads wide enough for a door cell to pass; the stored
   /// cell next to the new one is a local sample of its surface's colour. Surfaces' footprints
-  /// still cover a cell of any colour (a re-observation under other light).
+  /// still cover a cell of any mean colour within max_chromaticity_distance (a re-observation
+  /// under other light).
   double neighbour_max_rgb_distance = 20.0;
   /// σ floor (m): θ' residuals are measured in units of it, and a cell's depth noise σ_Z
   /// (Planecell::depth_sigma_m) counts as at least this much when weighting it (area / σ²).

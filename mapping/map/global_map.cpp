@@ -852,9 +852,16 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
             colours_near(cell, *test.met->cell) &&
             covers_test(cell, fresh_box[k], *test.met, t.angle_deg, t.tol, test.neighbour))
           covering.push_back(test.met->cell);
+      // A surface of another paint does not cover the cell (MapConfig::max_chromaticity_distance).
+      const Eigen::Vector3d chromaticity = histogram_chromaticity(cell.histogram);
+      const auto other_paint = [&](const Surface& surface) {
+        return config_.max_chromaticity_distance > 0.0 &&
+               (histogram_chromaticity(expand(surface.histogram)) - chromaticity).norm() >
+                   config_.max_chromaticity_distance;
+      };
       for (std::uint32_t id : covering_surfaces[k]) {
         const auto it = surfaces_.find(union_find.find(id));
-        if (it != surfaces_.end() && it->second.detail &&
+        if (it != surfaces_.end() && it->second.detail && !other_paint(it->second) &&
             std::find(covering_surface.begin(), covering_surface.end(), &it->second) == covering_surface.end())
           covering_surface.push_back(&it->second);
       }

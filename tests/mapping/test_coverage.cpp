@@ -18,8 +18,13 @@ using test::rect_cell;
 using test::kX;
 using test::kZ;
 
+/// Colour bins (q = 16·l_R + 4·l_G + l_B) of one grey paint at three brightnesses: histograms
+/// that do not intersect (the CRF keeps them apart) but of one chromaticity (a surface's footprint
+/// may cover a cell of another), and rect_cell's mean colours 84 levels apart.
+constexpr int kDarkGrey = 0, kGrey = 21, kBrightGrey = 42;
+
 /// A 1 m road square at x ∈ [x0, x0 + w], z ∈ [5, 6] on the plane y = 1.5.
-Planecell road(std::uint32_t id, float x0, float w = 1.0f, int colour_bin = 3) {
+Planecell road(std::uint32_t id, float x0, float w = 1.0f, int colour_bin = kGrey) {
   return rect_cell(id, {x0, 1.5f, 5}, w * kX, kZ, colour_bin);
 }
 
@@ -122,7 +127,7 @@ TEST(Coverage, MapDoesNotStoreSpaceItAlreadyHoldsWhateverTheLabel) {
     ASSERT_EQ(map.cells().size(), 2u);
     // The same two squares again, seen with another colour (lighting), plus new road beyond.
     const auto r = map.integrate(1, Pose::Identity(),
-                                 std::vector{road(0, 0, 1.0f, 30), road(1, 1, 1.0f, 30), road(2, 2)});
+                                 std::vector{road(0, 0, 1.0f, kBrightGrey), road(1, 1, 1.0f, kBrightGrey), road(2, 2)});
     if (rule_on) {
       EXPECT_EQ(r.redundant_cells, 2u);
       EXPECT_EQ(r.fused_cells, 2u);
@@ -142,17 +147,17 @@ TEST(Coverage, MapDoesNotStoreSpaceItAlreadyHoldsWhateverTheLabel) {
 TEST(Coverage, ReobservationGoesToTheSurfaceCoveringMostOfIt) {
   GlobalMap map;
   // Two road patches the CRF keeps apart (colours far apart): A at x ∈ [0, 0.6], B at x ∈ [0.6, 1.6].
-  (void)map.integrate(0, Pose::Identity(), std::vector{road(0, 0, 0.6f, 3), road(1, 0.6f, 1.0f, 60)});
+  (void)map.integrate(0, Pose::Identity(), std::vector{road(0, 0, 0.6f, kGrey), road(1, 0.6f, 1.0f, kDarkGrey)});
   ASSERT_EQ(map.cells().size(), 2u);
   const std::uint32_t a = map.cells().at(0).surface, b = map.cells().at(1).surface;
   ASSERT_NE(a, b);
   // A third colour (no CRF merge with either), fully covered: x ∈ [0, 1] lies 60 % on A.
-  const auto on_a = map.integrate(1, Pose::Identity(), std::vector{road(0, 0, 1.0f, 30)});
+  const auto on_a = map.integrate(1, Pose::Identity(), std::vector{road(0, 0, 1.0f, kBrightGrey)});
   ASSERT_EQ(on_a.redundant_cells, 1u);
   EXPECT_EQ(on_a.cell_surfaces[0], a);
   EXPECT_EQ(on_a.cell_fates[0], CellFate::kCoveredElsewhere);  // the CRF gave it a label of its own
   // x ∈ [0.3, 1.3] lies 70 % on B.
-  const auto on_b = map.integrate(2, Pose::Identity(), std::vector{road(0, 0.3f, 1.0f, 30)});
+  const auto on_b = map.integrate(2, Pose::Identity(), std::vector{road(0, 0.3f, 1.0f, kBrightGrey)});
   ASSERT_EQ(on_b.redundant_cells, 1u);
   EXPECT_EQ(on_b.cell_surfaces[0], b);
   EXPECT_EQ(map.cells().size(), 2u);
@@ -166,13 +171,13 @@ TEST(Coverage, ReobservationGoesToTheSurfaceCoveringMostOfIt) {
 TEST(Coverage, AReobservationCoveredPartlyByAnotherSurfaceIsFusedIntoItsOwn) {
   GlobalMap map;
   // A at x ∈ [0, 1] and B at x ∈ [1, 2], colours far apart: two surfaces.
-  (void)map.integrate(0, Pose::Identity(), std::vector{road(0, 0, 1.0f, 3), road(1, 1.0f, 1.0f, 60)});
+  (void)map.integrate(0, Pose::Identity(), std::vector{road(0, 0, 1.0f, kGrey), road(1, 1.0f, 1.0f, kDarkGrey)});
   ASSERT_EQ(map.cells().size(), 2u);
   const std::uint32_t a = map.cells().at(0).surface;
   ASSERT_NE(a, map.cells().at(1).surface);
   // x ∈ [0.5, 1.5] in A's colour: the CRF gives it A's label; half of it is new to A's footprint
   // (≥ 0.25), but A and B together cover all of it.
-  const auto r = map.integrate(1, Pose::Identity(), std::vector{road(0, 0.5f, 1.0f, 3)});
+  const auto r = map.integrate(1, Pose::Identity(), std::vector{road(0, 0.5f, 1.0f, kGrey)});
   EXPECT_EQ(r.redundant_cells, 1u);
   EXPECT_TRUE(r.added_cells.empty());
   EXPECT_EQ(r.cell_surfaces[0], a);
@@ -194,14 +199,14 @@ TEST(Coverage, SpaceHeldOnlyByAFusedObservationIsNotStoredAgain) {
   ASSERT_TRUE(fused.added_cells.empty());
   // x ∈ [0.35, 1.35] in another colour (no CRF merge): the stored polygon covers 65 % of it (below
   // redundant_coverage 0.75), the footprint 85 %: a re-observation, fused into that surface.
-  const auto again = map.integrate(2, Pose::Identity(), std::vector{road(0, 0.35f, 1.0f, 30)});
+  const auto again = map.integrate(2, Pose::Identity(), std::vector{road(0, 0.35f, 1.0f, kBrightGrey)});
   EXPECT_EQ(again.redundant_cells, 1u);
   EXPECT_TRUE(again.added_cells.empty());
   EXPECT_EQ(again.cell_surfaces[0], surface);
   EXPECT_EQ(map.cells().size(), 1u);
   EXPECT_EQ(map.surfaces().size(), 1u);
   // Shifted on to x ∈ [0.6, 1.6], only 60 % lies in the footprint: new space, stored.
-  const auto beyond = map.integrate(3, Pose::Identity(), std::vector{road(0, 0.6f, 1.0f, 30)});
+  const auto beyond = map.integrate(3, Pose::Identity(), std::vector{road(0, 0.6f, 1.0f, kBrightGrey)});
   EXPECT_EQ(beyond.redundant_cells, 0u);
   EXPECT_EQ(beyond.added_cells.size(), 1u);
 }
@@ -220,8 +225,8 @@ TEST(Coverage, AFarKerbCellIsCoveredWithinItsNoiseAlongTheNormal) {
     MapConfig config;
     config.coverage_normal_noise = normal_noise;
     GlobalMap map(config);
-    const auto road_at = [](float x0) { return rect_cell(0, {x0, 1.65f, 10}, kX, kZ, 3); };
-    Planecell kerb = rect_cell(0, {0.35f, 1.5f, 10}, kX, kZ, 30);
+    const auto road_at = [](float x0) { return rect_cell(0, {x0, 1.65f, 10}, kX, kZ, kGrey); };
+    Planecell kerb = rect_cell(0, {0.35f, 1.5f, 10}, kX, kZ, kBrightGrey);
     kerb.depth_sigma_m = 0.3f;
     const Eigen::Vector3d centroid(0.85, 1.5, 10.5);
     ASSERT_NEAR(normal_depth_sigma_m(kerb, Eigen::Vector3d::Zero()), 0.3 * 1.5 / centroid.norm(), 1e-6);
@@ -244,7 +249,7 @@ TEST(Coverage, AFootprintCoversANoisyCellOnlyWithinTheNeighbourGap) {
     GlobalMap map(config);
     Pose above = Pose::Identity();
     above.translation() = Eigen::Vector3d(0.85, -3.5, 5.5);
-    Planecell lifted = rect_cell(0, {0.35f, 1.15f, 5}, kX, kZ, 30);
+    Planecell lifted = rect_cell(0, {0.35f, 1.15f, 5}, kX, kZ, kBrightGrey);
     lifted.depth_sigma_m = 0.3f;
     ASSERT_GT(2.0 * normal_depth_sigma_m(lifted, above.translation()), 0.55);
     expect_stored_or_fused_into_road(map, above, road(0, 0), road(0, 0.2f), lifted, gap_m < 0.35);
@@ -307,7 +312,7 @@ TEST(Coverage, AReobservationIsFoundBeforeTheNeighbourSearch) {
     EXPECT_NEAR(map.surfaces().at(surface).area_m2, 1.2, 0.05);  // its area entered the footprint
     // x ∈ [0.35, 1.35] in another colour: out of the CRF's range, fused by coverage either way.
     const auto other_colour =
-        map.integrate(2, Pose::Identity(), std::vector{road(0, 0.35f, 1.0f, 30)});
+        map.integrate(2, Pose::Identity(), std::vector{road(0, 0.35f, 1.0f, kBrightGrey)});
     EXPECT_EQ(other_colour.prefused_cells, 0u);
     EXPECT_EQ(other_colour.redundant_cells, 1u);
     EXPECT_EQ(other_colour.cell_surfaces[0], surface);
@@ -320,6 +325,25 @@ TEST(Coverage, AReobservationIsFoundBeforeTheNeighbourSearch) {
     EXPECT_EQ(beyond.cell_surfaces[0], surface);
     EXPECT_EQ(map.cells().size(), 2u);
     EXPECT_EQ(map.surfaces().size(), 1u);
+  }
+}
+
+/// A surface's footprint covers a cell only when their chromaticities are near
+/// (MapConfig::max_chromaticity_distance): inside the grey road's footprint stretched to x = 1.2
+/// (the stored square covering 65 %, the footprint 85 % of it), a cell at x ∈ [0.35, 1.35] of
+/// the same grey brighter lit is fused into the road; one of a reddish paint (levels (2, 1, 0),
+/// chromaticity 0.32 from grey) is stored on a surface of its own, unless the test is off.
+TEST(Coverage, AFootprintCoversOnlyACellOfItsOwnPaint) {
+  constexpr int kReddish = 16 * 2 + 4 * 1 + 0;
+  for (const double max_chromaticity : {0.06, 0.0}) {
+    for (const int bin : {kBrightGrey, kReddish}) {
+      SCOPED_TRACE("max chromaticity distance " + std::to_string(max_chromaticity) + ", bin " + std::to_string(bin));
+      MapConfig config;
+      config.max_chromaticity_distance = max_chromaticity;
+      GlobalMap map(config);
+      expect_stored_or_fused_into_road(map, Pose::Identity(), road(0, 0), road(0, 0.2f), road(0, 0.35f, 1.0f, bin),
+                                       bin == kReddish && max_chromaticity > 0.0);
+    }
   }
 }
 
