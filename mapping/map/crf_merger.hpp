@@ -39,6 +39,12 @@ double colour_similarity(const ColourHistogram& a, const ColourHistogram& b);
 /// (shading, a texture's grey modulation) leaves it unchanged. Grey (⅓, ⅓, ⅓) for an empty histogram.
 Eigen::Vector3d histogram_chromaticity(const ColourHistogram& histogram);
 
+/// Two chromaticities of different paint: farther apart (Euclidean) than max_distance, when that
+/// is > 0 (MapConfig::max_chromaticity_distance; 0 = every pair one paint).
+inline bool other_paint(const Eigen::Vector3d& a, const Eigen::Vector3d& b, double max_distance) {
+  return max_distance > 0.0 && (a - b).norm() > max_distance;
+}
+
 /// θ'_i(x_j): RMS distance of x_j's polygon vertices to x_i's plane, in units of σ:
 ///   θ'_i(x_j) = sqrt( (1/K) Σ_k (n_i·v_jk + e_i)² ) / σ   (dimensionless; σ = residual_scale_m).
 double plane_residual(const Plane3& plane_i, std::span<const Eigen::Vector3f> vertices_j,

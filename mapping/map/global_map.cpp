@@ -143,6 +143,9 @@ void observe(Surface& surface, std::uint64_t frame_id) {
   surface.last_observed_frame = std::max(surface.last_observed_frame, frame_id);
 }
 
+/// histogram_chromaticity of a surface's colour histogram.
+Eigen::Vector3d chromaticity_of(const Surface& surface) { return histogram_chromaticity(expand(surface.histogram)); }
+
 LabelState state_of_surface(const Surface& surface) {
   LabelState s;
   s.plane = surface.plane;
@@ -854,14 +857,10 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
           covering.push_back(test.met->cell);
       // A surface of another paint does not cover the cell (MapConfig::max_chromaticity_distance).
       const Eigen::Vector3d chromaticity = histogram_chromaticity(cell.histogram);
-      const auto other_paint = [&](const Surface& surface) {
-        return config_.max_chromaticity_distance > 0.0 &&
-               (histogram_chromaticity(expand(surface.histogram)) - chromaticity).norm() >
-                   config_.max_chromaticity_distance;
-      };
       for (std::uint32_t id : covering_surfaces[k]) {
         const auto it = surfaces_.find(union_find.find(id));
-        if (it != surfaces_.end() && it->second.detail && !other_paint(it->second) &&
+        if (it != surfaces_.end() && it->second.detail &&
+            !other_paint(chromaticity_of(it->second), chromaticity, config_.max_chromaticity_distance) &&
             std::find(covering_surface.begin(), covering_surface.end(), &it->second) == covering_surface.end())
           covering_surface.push_back(&it->second);
       }
@@ -1197,7 +1196,9 @@ std::uint32_t GlobalMap::bridge_long(std::uint32_t id, std::span<const Planecell
                     [&](const Eigen::Vector3d& q) { return third_surface_near(q, self_id, other_id, probe); }))
       return self_id;
     LabelState sa = state_of_surface(self), sb = state_of_surface(other);  // asleep too (above)
-    if (colour_similarity(sa.histogram, sb.histogram) < config_.bridge_long_min_colour) return self_id;
+    if (colour_similarity(sa.histogram, sb.histogram) < config_.bridge_long_min_colour ||
+        other_paint(sa.chromaticity, sb.chromaticity, config_.max_chromaticity_distance))
+      return self_id;
     return merge_surfaces(self_id, std::move(sa), other_id, std::move(sb), touched, report);
   };
   // Only large mature surfaces can pass `reject`: the walk visits their cells alone, found among
@@ -1286,7 +1287,8 @@ bool GlobalMap::join_neighbour(Surface& surface, std::set<std::uint32_t>& touche
       if (rms_m > std::max(config_.fragment_join_distance_m, noise_distance_m)) continue;
       const double colour = colour_similarity(self.histogram, expand(other.histogram));
       if (colour < (rms_m <= config_.fragment_join_distance_m ? config_.min_colour_similarity
-                                                              : config_.fragment_join_noise_colour))
+                                                              : config_.fragment_join_noise_colour) ||
+          other_paint(self.chromaticity, chromaticity_of(other), config_.max_chromaticity_distance))
         continue;
       best = &other;
     }
@@ -1367,7 +1369,9 @@ bool GlobalMap::join_ground_across_gap(Surface& surface, std::set<std::uint32_t>
       continue;
     Surface& other = surfaces_.at(other_id);
     LabelState self_state = state_of_surface(surface);
-    if (colour_similarity(self_state.histogram, expand(other.histogram)) < config_.ground_join_min_colour) continue;
+    if (colour_similarity(self_state.histogram, expand(other.histogram)) < config_.ground_join_min_colour ||
+        other_paint(self_state.chromaticity, chromaticity_of(other), config_.max_chromaticity_distance))
+      continue;
     wake(other);  // `surface` is live (it was going dormant); the other's state is taken awake
     merge_surfaces(surface.id, std::move(self_state), other_id, state_of_surface(other), touched, report);
     return true;

@@ -843,6 +843,46 @@ TEST(Dormancy, AFragmentGoingDormantJoinsTheLargerNeighbourItLiesOn) {
   EXPECT_CONTAINS(test::error_of<ConfigError>([&] { GlobalMap{bad}; }), "map.fragment_join_max_area_m2");
 }
 
+/// The wall above and one 0.5 m square over its top edge tilted 20° (the CRF's 10° keeps it apart),
+/// its histogram half the wall's bin 3 (levels (0, 0, 3)) and half reddish (levels (2, 1, 0)):
+/// intersection 0.5 passes the colour test, but its mean chromaticity (0.33, 0.22, 0.45) lies 0.42
+/// from the wall's (0.11, 0.11, 0.78): another paint (MapConfig::max_chromaticity_distance), it
+/// stays apart going dormant; with the test off it joins the wall.
+TEST(Dormancy, AFragmentOfAnotherPaintDoesNotJoinTheNeighbourItLiesOn) {
+  const auto frame = [](std::uint64_t f) {
+    std::vector<Planecell> cells;
+    test::tile(cells, {0.0f, 0.0f, 10.0f}, kX, kY, 4.0f, 2.0f, 1.0f, 0.0f, 3);
+    if (f <= 1) {
+      const float t = 20.0f * static_cast<float>(M_PI) / 180.0f;
+      Planecell fragment = rect_cell(static_cast<std::uint32_t>(cells.size()), {0.2f, -0.5f, 10.0f - 0.25f * std::sin(t)},
+                                     0.5f * kX, Eigen::Vector3f(0.0f, 0.5f * std::cos(t), 0.5f * std::sin(t)), 3);
+      fragment.histogram[3] = 0.5f;
+      fragment.histogram[16 * 2 + 4 * 1 + 0] = 0.5f;
+      cells.push_back(fragment);
+    }
+    return cells;
+  };
+  for (const double max_chromaticity : {0.06, 0.0}) {
+    SCOPED_TRACE("max chromaticity distance " + std::to_string(max_chromaticity));
+    MapConfig config = QuietPatch::config();
+    config.max_chromaticity_distance = max_chromaticity;
+    GlobalMap map(config);
+    std::uint32_t wall = kNoSurface, fragment = kNoSurface;
+    for (std::uint64_t f = 0; f <= 6; ++f) {
+      const auto report = map.integrate(f, Pose::Identity(), frame(f));
+      if (f == 0) {
+        wall = report.cell_surfaces[0];
+        fragment = report.cell_surfaces[8];
+        ASSERT_NE(fragment, wall);
+      }
+      if (f < 6) EXPECT_TRUE(report.surface_merges.empty()) << "frame " << f;
+      else if (max_chromaticity > 0.0) EXPECT_TRUE(report.surface_merges.empty());
+      else EXPECT_EQ(report.surface_merges, (std::vector<SurfaceMerge>{{6, fragment, wall}}));
+    }
+    EXPECT_EQ(map.surface(fragment) != nullptr, max_chromaticity > 0.0);
+  }
+}
+
 /// The same 4 m × 2 m wall at z = 10 (colour bin 3) and three 0.5 m squares parallel to it just
 /// above its top edge, 15 cm nearer the camera (z = 9.85), seen in frames 0 and 1: beyond the
 /// CRF's fixed 8 cm range (depth_sigma_factor 0) and fragment_join_distance_m (10 cm). With a
