@@ -1217,7 +1217,8 @@ TEST(Bridge, NoLongBridgeWhenOffSeenOpenlyFilledSteppedOrOfAnotherColour) {
 /// fragment 8 cm off it (2 m × 2 m at z ∈ [24, 26]); the second patch may be raised, or both
 /// patches stood up as walls (z = 8 and z = 37 swapped for x = 8, the same 25 m apart). The far
 /// patch's colour histogram holds `far_colour_share` of its weight in the near one's bin (0) and
-/// the rest in bin 12: the two surfaces' colour similarity δ is that share.
+/// the rest in `far_other_bin`, by default 21, the same grey brighter (one chromaticity, one
+/// paint): the two surfaces' colour similarity δ is that share.
 struct GroundGapCase {
   MapConfig config = far_reach_config();
   bool road_in_gap = false;
@@ -1225,6 +1226,7 @@ struct GroundGapCase {
   float raise_m = 0.0f;
   bool walls = false;
   float far_colour_share = 1.0f;
+  int far_other_bin = 21;  ///< where the rest of the far patch's colour weight goes
   float far_width_m = 6.0f;  ///< the far patch's extent along x (4 m along z)
   std::vector<MergeReport> reports;
   std::size_t run() {
@@ -1239,7 +1241,7 @@ struct GroundGapCase {
     }
     for (Planecell& cell : second) {
       cell.histogram[0] = far_colour_share;
-      cell.histogram[12] = 1.0f - far_colour_share;
+      cell.histogram[far_other_bin] = 1.0f - far_colour_share;
     }
     if (road_in_gap) test::tile(extra, {-3, 1.65f, 14}, kX, kZ, 6, 21, 1, 0, 9);
     if (fragment_in_gap) test::tile(extra, {-1, 1.58f, 24}, kX, kZ, 2, 2, 1, 0, 0);
@@ -1297,7 +1299,8 @@ TEST(GroundJoin, NoJoinWhenOffTooFarARoadLiesBetweenSteppedOrNotGround) {
 
 /// A sidewalk's pieces mapped from 10 m and from 40 m differ in colour (distance blurs the
 /// texture): the ground join's own colour test (ground_join_min_colour, 0.5) passes δ = 0.6, which
-/// the long bridge's (bridge_long_min_colour, 0.75) would not; δ = 0.3 stays apart.
+/// the long bridge's (bridge_long_min_colour, 0.75) would not; δ = 0.3, or δ = 0.6 of another
+/// paint, stays apart.
 TEST(GroundJoin, JoinsGroundOfAnotherLookWithinItsOwnColourTest) {
   GroundGapCase alike;
   ASSERT_EQ(alike.config.ground_join_min_colour, 0.5);
@@ -1312,7 +1315,13 @@ TEST(GroundJoin, JoinsGroundOfAnotherLookWithinItsOwnColourTest) {
   GroundGapCase unlike;
   unlike.far_colour_share = 0.3f;
   EXPECT_EQ(unlike.run(), 2u);
-  for (const auto* c : {&strict, &unlike}) EXPECT_TRUE(c->reports[3].surface_merges.empty());
+  // δ = 0.6 again, the rest green (levels (0, 3, 0)): chromaticity (0.19, 0.63, 0.19), 0.36 from
+  // the near grey's (MapConfig::max_chromaticity_distance): another paint, apart.
+  GroundGapCase painted;
+  painted.far_colour_share = 0.6f;
+  painted.far_other_bin = 12;
+  EXPECT_EQ(painted.run(), 2u);
+  for (const auto* c : {&strict, &unlike, &painted}) EXPECT_TRUE(c->reports[3].surface_merges.empty());
   MapConfig bad;
   bad.ground_join_min_colour = 1.5;
   EXPECT_CONTAINS(test::error_of<ConfigError>([&] { GlobalMap{bad}; }), "map.ground_join_min_colour");
