@@ -32,15 +32,15 @@ struct MapConfig {
   double max_plane_distance_m = 0.08;  ///< smallest plane-distance tolerance d_min (m)
   double min_colour_similarity = 0.3;  ///< min histogram intersection δ ∈ [0, 1]
   /// Two labels whose mean chromaticities (histogram_chromaticity: the mean colour's
-  /// (R, G, B)/(R + G + B)) lie farther apart than this (Euclidean) are out of the range too
-  /// (0 = off). Shading and a texture's grey modulation scale R, G and B alike: they spread a
-  /// surface's histogram along one line through black, wide enough on a textured facade for the
-  /// intersection to pass a dark door of another paint, but leave its chromaticity unchanged.
-  /// The synthetic streets' door paint lies 0.075–0.16 from five of their six facade paints (0.03
-  /// from the sixth); 0.045–0.06 cut the cells merged across GT planes most there while keeping
-  /// the area in one label (docs/PERFORMANCE.md). A surface's
-  /// footprint covers a new cell (MapConfig::redundant_coverage) only when the cell's own
-  /// chromaticity is as near the surface's.
+  /// (R, G, B)/(R + G + B)) lie farther apart than this (Euclidean) are of other paint (0 = off):
+  /// out of the range, and never joined by the fragment join, the long bridge or the ground join;
+  /// a surface's footprint covers a new cell (redundant_coverage) only when the cell's own
+  /// chromaticity is as near the surface's. Shading and a texture's grey modulation scale R, G
+  /// and B alike: they spread a surface's histogram along one line through black, wide enough on a
+  /// textured facade for the intersection to pass a dark door of another paint, but leave its
+  /// chromaticity unchanged. The synthetic streets' door paint lies 0.075–0.16 from five of their
+  /// six facade paints (0.03 from the sixth); 0.045–0.06 cut the cells merged across GT planes
+  /// most there while keeping the area in one label (docs/PERFORMANCE.md).
   double max_chromaticity_distance = 0.06;
   /// A new cell meets a stored cell (a neighbour edge for the CRF, the re-observation search, a
   /// stored cell that may cover it) only when their mean colours lie within this Euclidean RGB

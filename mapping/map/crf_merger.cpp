@@ -345,8 +345,8 @@ EdgeEvaluation CrfMerger::evaluate_range(const MergeUnit& a, const LabelState& l
   }
   if (!in_range) return ev;  // out of the variation range: the colour is not needed
   ev.colour_similarity = colour_similarity(lo.histogram, hi.histogram);
-  ev.in_range = ev.colour_similarity >= config_.min_colour_similarity;
-  ev.in_range = ev.in_range && !other_paint(lo.chromaticity, hi.chromaticity, config_.max_chromaticity_distance);
+  ev.in_range = ev.colour_similarity >= config_.min_colour_similarity &&
+                !other_paint(lo.chromaticity, hi.chromaticity, config_.max_chromaticity_distance);
   return ev;
 }
 
