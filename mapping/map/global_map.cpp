@@ -856,7 +856,8 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
             covers_test(cell, fresh_box[k], *test.met, t.angle_deg, t.tol, test.neighbour))
           covering.push_back(test.met->cell);
       // A surface of another paint does not cover the cell (MapConfig::max_chromaticity_distance).
-      const Eigen::Vector3d chromaticity = histogram_chromaticity(cell.histogram);
+      const Eigen::Vector3d chromaticity =
+          covering_surfaces[k].empty() ? Eigen::Vector3d::Zero() : histogram_chromaticity(cell.histogram);
       for (std::uint32_t id : covering_surfaces[k]) {
         const auto it = surfaces_.find(union_find.find(id));
         if (it != surfaces_.end() && it->second.detail &&
@@ -1285,10 +1286,11 @@ bool GlobalMap::join_neighbour(Surface& surface, std::set<std::uint32_t>& touche
       if (angle_deg > config_.fragment_join_angle_deg) continue;
       const double rms_m = self.moments.rms_distance_m(other.plane);
       if (rms_m > std::max(config_.fragment_join_distance_m, noise_distance_m)) continue;
-      const double colour = colour_similarity(self.histogram, expand(other.histogram));
+      const ColourHistogram other_histogram = expand(other.histogram);
+      const double colour = colour_similarity(self.histogram, other_histogram);
       if (colour < (rms_m <= config_.fragment_join_distance_m ? config_.min_colour_similarity
                                                               : config_.fragment_join_noise_colour) ||
-          other_paint(self.chromaticity, chromaticity_of(other), config_.max_chromaticity_distance))
+          other_paint(self.chromaticity, histogram_chromaticity(other_histogram), config_.max_chromaticity_distance))
         continue;
       best = &other;
     }
@@ -1369,8 +1371,9 @@ bool GlobalMap::join_ground_across_gap(Surface& surface, std::set<std::uint32_t>
       continue;
     Surface& other = surfaces_.at(other_id);
     LabelState self_state = state_of_surface(surface);
-    if (colour_similarity(self_state.histogram, expand(other.histogram)) < config_.ground_join_min_colour ||
-        other_paint(self_state.chromaticity, chromaticity_of(other), config_.max_chromaticity_distance))
+    const ColourHistogram other_histogram = expand(other.histogram);
+    if (colour_similarity(self_state.histogram, other_histogram) < config_.ground_join_min_colour ||
+        other_paint(self_state.chromaticity, histogram_chromaticity(other_histogram), config_.max_chromaticity_distance))
       continue;
     wake(other);  // `surface` is live (it was going dormant); the other's state is taken awake
     merge_surfaces(surface.id, std::move(self_state), other_id, state_of_surface(other), touched, report);
