@@ -13,10 +13,16 @@ struct MapConfig {
   /// between a road and its sidewalk; nearer re-observations of the same area are mapped instead.
   double max_range_m = 20.0;
   /// Cells whose stereo depth noise σ_Z (Planecell::depth_sigma_m = Z²·σ_d/(f_x·B)) exceeds this
-  /// are not mapped either: the range gate in terms of the rig. 0.6 m is σ_Z at 20 m on the KITTI
-  /// rig (f_x 721.5 px, B 0.54 m, σ_d = 1/√3 px); a camera with half the focal length reaches it at
-  /// 14 m. 0 = no gate.
-  double max_depth_sigma_m = 0.6;
+  /// are not mapped either: the range gate in terms of the rig. 0.35 m is σ_Z at 15.4 m on the
+  /// KITTI rig (f_x 721.5 px, B 0.54 m, σ_d = 1/√3 px; 20 m gives 0.6 m), more than twice a kerb's
+  /// step: the CRF's range (k·σ_Z) there no longer tells road from sidewalk, nor a setback facade
+  /// from its neighbour. A forward drive sees the same places nearer a few frames later. On 16
+  /// synthetic 100-frame streets 0.6 → 0.35 m gives 1.2 points more GT area in one label, 0.3
+  /// points fewer cells merged across GT planes, 3 points more of the map within 10 cm of a GT
+  /// surface, for 0.8 points of the GT points within 10 cm of the map (docs/PERFORMANCE.md, "The
+  /// depth-noise gate at 0.35 m"). EuRoC's rig (B 0.11 m) reaches 0.35 m at 5.5 m: its sample's
+  /// map is the same. 0 = no gate.
+  double max_depth_sigma_m = 0.35;
   /// Cells whose RANSAC plane explains less than this share of their valid disparities within the
   /// fit's inlier threshold (Planecell::inlier_ratio, ±1 px by default) are not mapped: their
   /// planes are the tail of the map's plane error. On the synthetic streets (docs/PERFORMANCE.md,
@@ -289,12 +295,16 @@ struct MapConfig {
   /// depth noise of its stored cells (MapCell::depth_sigma_m: stereo cannot tell such a patch from
   /// the plane), provided its colours match the neighbour's closely, δ ≥
   /// fragment_join_noise_colour (the same material: on the synthetic streets a door 3 cm proud of
-  /// its facade has δ ≈ 0.72 against it, pieces of one facade 0.88 in the median). On eight
-  /// 100-frame streets it raises the GT area in one label from 78.9 to 79.5 % at the same share of
-  /// cells merged across GT planes, and the settled map is 3 % smaller (docs/PERFORMANCE.md,
-  /// "Fragments within their own depth noise"). 0 = off.
+  /// its facade has δ ≈ 0.72 against it, pieces of one facade 0.88 in the median), and its paint
+  /// is the neighbour's (max_chromaticity_distance). On eight 100-frame streets it raised the GT
+  /// area in one label from 78.9 to 79.5 % at the same share of cells merged across GT planes, and
+  /// the settled map was 3 % smaller (docs/PERFORMANCE.md, "Fragments within their own depth
+  /// noise"). 0.93 kept out half the pieces of one facade while doors of another paint passed
+  /// lower bars; with paint tested apart, 0.8 (between the door's 0.72 and the pieces' 0.88) joins
+  /// 0.7 points more GT area at 0.04 points more cells across GT planes ("The depth-noise gate at
+  /// 0.35 m"). 0 = off.
   double fragment_join_sigma_factor = 1.0;
-  double fragment_join_noise_colour = 0.93;
+  double fragment_join_noise_colour = 0.8;
   /// How near another surface's cells a fragment must lie to be redundant (m): the map's
   /// completeness is scored at 10 cm (replay's `map_vs_ground_truth`).
   double fragment_redundant_m = 0.10;

@@ -263,9 +263,9 @@ TEST(Coverage, NearPreciseCellsReplaceAFarNoisyCellTheyCover) {
   // all of σ_Z (map::normal_depth_sigma_m: ≥ 0.95 σ_Z here), so the σ below are the planes' own.
   Pose above = Pose::Identity();
   above.translation() = Eigen::Vector3d(1.0, -3.5, 5.5);
-  // Frame 0: seen from far, σ_Z = 0.4 m: a 2 m square and its 1 m neighbour (one surface).
+  // Frame 0: seen from far, σ_Z = 0.3 m: a 2 m square and its 1 m neighbour (one surface).
   Planecell far_big = road(0, 0, 2.0f), far_next = road(1, 2);
-  far_big.depth_sigma_m = far_next.depth_sigma_m = 0.4f;
+  far_big.depth_sigma_m = far_next.depth_sigma_m = 0.3f;
   (void)map.integrate(0, above, std::vector{far_big, far_next});
   ASSERT_EQ(map.cells().size(), 2u);
   ASSERT_EQ(map.surfaces().size(), 1u);
@@ -275,7 +275,7 @@ TEST(Coverage, NearPreciseCellsReplaceAFarNoisyCellTheyCover) {
   Planecell near_a = road(0, 0), near_b = road(1, 1);
   near_a.depth_sigma_m = near_b.depth_sigma_m = 0.02f;
   const auto r = map.integrate(1, above, std::vector{near_a, near_b});
-  EXPECT_EQ(r.prefused_cells, 0u);  // a surface known only from 20× noisier views: not found first
+  EXPECT_EQ(r.prefused_cells, 0u);  // a surface known only from 15× noisier views: not found first
   EXPECT_EQ(r.added_cells.size(), 2u);
   EXPECT_EQ(r.replaced_cells, 1u);
   EXPECT_EQ(r.removed_cells, std::vector<std::uint32_t>{big_id});

@@ -893,7 +893,7 @@ TEST(Dormancy, AFragmentWithinItsOwnDepthNoiseJoinsANeighbourOfItsColour) {
   MapConfig config = QuietPatch::config();
   config.depth_sigma_factor = 0.0;
   ASSERT_EQ(config.fragment_join_sigma_factor, 1.0);
-  ASSERT_EQ(config.fragment_join_noise_colour, 0.93);
+  ASSERT_EQ(config.fragment_join_noise_colour, 0.8);
   ASSERT_EQ(config.fragment_join_distance_m, 0.10);
   auto square = [](std::uint32_t id, float x, int bin, float sigma_m) {
     Planecell cell = rect_cell(id, {x, -0.5f, 9.85f}, 0.5f * kX, 0.5f * kY, bin);

@@ -13,7 +13,7 @@ namespace planecell::test {
 void write_small_street(const std::filesystem::path& dir, int frames, std::uint64_t seed,
                         int width = 414, int height = 125);
 
-/// Defaults scaled to such frames: 48 disparities, 150 target cells.
+/// Defaults scaled to such frames: 48 disparities, 150 target cells, cells up to σ_Z 0.6 m.
 AppConfig small_street_config();
 
 }  // namespace planecell::test
