@@ -295,6 +295,9 @@ GlobalMap::GlobalMap(const MapConfig& config)
   if (!(config.ground_join_min_area_m2 >= 0.0) || !std::isfinite(config.ground_join_min_area_m2))
     throw ConfigError("map.ground_join_min_area_m2: must be a finite area >= 0, got " +
                       std::to_string(config.ground_join_min_area_m2));
+  if (!(config.covered_elsewhere_min_colour >= 0.0 && config.covered_elsewhere_min_colour <= 1.0))
+    throw ConfigError("map.covered_elsewhere_min_colour: must be a colour similarity in [0, 1], got " +
+                      std::to_string(config.covered_elsewhere_min_colour));
   if (!(config.ground_join_min_colour >= 0.0 && config.ground_join_min_colour <= 1.0))
     throw ConfigError("map.ground_join_min_colour: must be a colour similarity in [0, 1], got " +
                       std::to_string(config.ground_join_min_colour));
@@ -855,14 +858,21 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
             colours_near(cell, *test.met->cell) &&
             covers_test(cell, fresh_box[k], *test.met, t.angle_deg, t.tol, test.neighbour))
           covering.push_back(test.met->cell);
-      // A surface of another paint does not cover the cell (MapConfig::max_chromaticity_distance).
+      // A surface of another paint does not cover the cell (MapConfig::max_chromaticity_distance),
+      // nor one other than its CRF label unless their colours are alike
+      // (MapConfig::covered_elsewhere_min_colour).
       const Eigen::Vector3d chromaticity =
           covering_surfaces[k].empty() ? Eigen::Vector3d::Zero() : histogram_chromaticity(cell.histogram);
+      const auto colours_alike = [&](const Surface& surface) {
+        return !(config_.covered_elsewhere_min_colour > 0.0) || surface.id == root ||
+               colour_similarity(cell.histogram, expand(surface.histogram)) >= config_.covered_elsewhere_min_colour;
+      };
       for (std::uint32_t id : covering_surfaces[k]) {
         const auto it = surfaces_.find(union_find.find(id));
         if (it != surfaces_.end() && it->second.detail &&
             !other_paint(chromaticity_of(it->second), chromaticity, config_.max_chromaticity_distance) &&
-            std::find(covering_surface.begin(), covering_surface.end(), &it->second) == covering_surface.end())
+            std::find(covering_surface.begin(), covering_surface.end(), &it->second) == covering_surface.end() &&
+            colours_alike(it->second))
           covering_surface.push_back(&it->second);
       }
     }

@@ -7,7 +7,9 @@
 
 #include "core/error.hpp"
 #include "mapping/map/coverage.hpp"
+#include "mapping/map/crf_merger.hpp"
 #include "mapping/map/global_map.hpp"
+#include "support/expect_error.hpp"
 #include "support/planecell_fixtures.hpp"
 
 namespace planecell::map {
@@ -22,6 +24,16 @@ using test::kZ;
 /// that do not intersect (the CRF keeps them apart) but of one chromaticity (a surface's footprint
 /// may cover a cell of another), and rect_cell's mean colours 84 levels apart.
 constexpr int kDarkGrey = 0, kGrey = 21, kBrightGrey = 42;
+
+/// The map's defaults but for MapConfig::covered_elsewhere_min_colour (off). The tests that keep a
+/// re-observation out of a surface's CRF label by a colour whose histogram does not intersect the
+/// surface's (one-hot bins) test the coverage's geometry with it; the colour test of a covering
+/// surface has its own (AFootprintCoversACellTheCrfLabelledOtherwiseOnlyInItsColours).
+MapConfig any_colour_covered() {
+  MapConfig config;
+  config.covered_elsewhere_min_colour = 0.0;
+  return config;
+}
 
 /// A 1 m road square at x ∈ [x0, x0 + w], z ∈ [5, 6] on the plane y = 1.5.
 Planecell road(std::uint32_t id, float x0, float w = 1.0f, int colour_bin = kGrey) {
@@ -120,7 +132,7 @@ TEST(Coverage, NearlyCoplanarGatesAngleAndRmsDistance) {
 TEST(Coverage, MapDoesNotStoreSpaceItAlreadyHoldsWhateverTheLabel) {
   for (const bool rule_on : {true, false}) {
     SCOPED_TRACE(rule_on ? "coverage rule on" : "coverage rule off");
-    MapConfig config;
+    MapConfig config = any_colour_covered();
     if (!rule_on) config.redundant_coverage = 2.0;
     GlobalMap map(config);
     (void)map.integrate(0, Pose::Identity(), std::vector{road(0, 0), road(1, 1)});
@@ -145,7 +157,7 @@ TEST(Coverage, MapDoesNotStoreSpaceItAlreadyHoldsWhateverTheLabel) {
 
 /// A re-observation spanning two surfaces is fused into the one covering most of it.
 TEST(Coverage, ReobservationGoesToTheSurfaceCoveringMostOfIt) {
-  GlobalMap map;
+  GlobalMap map(any_colour_covered());
   // Two road patches the CRF keeps apart (colours far apart): A at x ∈ [0, 0.6], B at x ∈ [0.6, 1.6].
   (void)map.integrate(0, Pose::Identity(), std::vector{road(0, 0, 0.6f, kGrey), road(1, 0.6f, 1.0f, kDarkGrey)});
   ASSERT_EQ(map.cells().size(), 2u);
@@ -169,7 +181,7 @@ TEST(Coverage, ReobservationGoesToTheSurfaceCoveringMostOfIt) {
 /// surface's footprint, but whose rest lies on a coplanar neighbour of another colour, is fused
 /// into its own surface by coverage.
 TEST(Coverage, AReobservationCoveredPartlyByAnotherSurfaceIsFusedIntoItsOwn) {
-  GlobalMap map;
+  GlobalMap map(any_colour_covered());
   // A at x ∈ [0, 1] and B at x ∈ [1, 2], colours far apart: two surfaces.
   (void)map.integrate(0, Pose::Identity(), std::vector{road(0, 0, 1.0f, kGrey), road(1, 1.0f, 1.0f, kDarkGrey)});
   ASSERT_EQ(map.cells().size(), 2u);
@@ -188,7 +200,7 @@ TEST(Coverage, AReobservationCoveredPartlyByAnotherSurfaceIsFusedIntoItsOwn) {
 /// Space the map holds only through a fused (unstored) observation still counts: coverage reads
 /// the surfaces' footprints, not just the stored polygons.
 TEST(Coverage, SpaceHeldOnlyByAFusedObservationIsNotStoredAgain) {
-  GlobalMap map;
+  GlobalMap map(any_colour_covered());
   (void)map.integrate(0, Pose::Identity(), std::vector{road(0, 0)});  // x ∈ [0, 1], stored
   ASSERT_EQ(map.cells().size(), 1u);
   const std::uint32_t surface = map.cells().at(0).surface;
@@ -222,7 +234,7 @@ TEST(Coverage, SpaceHeldOnlyByAFusedObservationIsNotStoredAgain) {
 TEST(Coverage, AFarKerbCellIsCoveredWithinItsNoiseAlongTheNormal) {
   for (const bool normal_noise : {true, false}) {
     SCOPED_TRACE(normal_noise ? "sigma along the normal" : "sigma_Z");
-    MapConfig config;
+    MapConfig config = any_colour_covered();
     config.coverage_normal_noise = normal_noise;
     GlobalMap map(config);
     const auto road_at = [](float x0) { return rect_cell(0, {x0, 1.65f, 10}, kX, kZ, kGrey); };
@@ -244,7 +256,7 @@ TEST(Coverage, AFarKerbCellIsCoveredWithinItsNoiseAlongTheNormal) {
 TEST(Coverage, AFootprintCoversANoisyCellOnlyWithinTheNeighbourGap) {
   for (const double gap_m : {0.3, 0.4}) {
     SCOPED_TRACE("neighbour gap " + std::to_string(gap_m) + " m");
-    MapConfig config;
+    MapConfig config = any_colour_covered();
     config.neighbour_gap_m = gap_m;
     GlobalMap map(config);
     Pose above = Pose::Identity();
@@ -296,7 +308,7 @@ TEST(Coverage, NearPreciseCellsReplaceAFarNoisyCellTheyCover) {
 TEST(Coverage, AReobservationIsFoundBeforeTheNeighbourSearch) {
   for (const bool first : {true, false}) {
     SCOPED_TRACE(first ? "found first" : "regular path");
-    MapConfig config;
+    MapConfig config = any_colour_covered();
     config.prefuse_reobservations = first;
     GlobalMap map(config);
     // x ∈ [0, 1], stored.
@@ -338,13 +350,40 @@ TEST(Coverage, AFootprintCoversOnlyACellOfItsOwnPaint) {
   for (const double max_chromaticity : {0.06, 0.0}) {
     for (const int bin : {kBrightGrey, kReddish}) {
       SCOPED_TRACE("max chromaticity distance " + std::to_string(max_chromaticity) + ", bin " + std::to_string(bin));
-      MapConfig config;
+      MapConfig config = any_colour_covered();
       config.max_chromaticity_distance = max_chromaticity;
       GlobalMap map(config);
       expect_stored_or_fused_into_road(map, Pose::Identity(), road(0, 0), road(0, 0.2f), road(0, 0.35f, 1.0f, bin),
                                        bin == kReddish && max_chromaticity > 0.0);
     }
   }
+}
+
+/// MapConfig::covered_elsewhere_min_colour: inside the grey road's footprint stretched to x = 1.2
+/// (as above), a cell at x ∈ [0.35, 1.35] of the same grey partly lit brighter — its histogram a
+/// share s on the grey bin and 1 − s on the bright grey's, its mean colour 84 levels off, so that
+/// no stored cell is its neighbour for the CRF (neighbour_max_rgb_distance) and the CRF gives it a
+/// label of its own — is fused into the road when its histogram intersects the road's by
+/// s = 0.75 ≥ 0.7, and stored on a surface of its own at s = 0.5, unless the test is off.
+TEST(Coverage, AFootprintCoversACellTheCrfLabelledOtherwiseOnlyInItsColours) {
+  ASSERT_EQ(MapConfig{}.covered_elsewhere_min_colour, 0.7);
+  for (const double min_colour : {0.7, 0.0}) {
+    for (const float share : {0.75f, 0.5f}) {
+      SCOPED_TRACE("min colour " + std::to_string(min_colour) + ", grey share " + std::to_string(share));
+      MapConfig config;
+      config.covered_elsewhere_min_colour = min_colour;
+      GlobalMap map(config);
+      Planecell lit = road(0, 0.35f, 1.0f, kBrightGrey);
+      lit.histogram[kGrey] = share;
+      lit.histogram[kBrightGrey] = 1.0f - share;
+      ASSERT_NEAR(colour_similarity(lit.histogram, road(0, 0).histogram), share, 1e-6);
+      expect_stored_or_fused_into_road(map, Pose::Identity(), road(0, 0), road(0, 0.2f), lit,
+                                       min_colour > 0.0 && share < min_colour);
+    }
+  }
+  MapConfig bad;
+  bad.covered_elsewhere_min_colour = 1.5;
+  EXPECT_CONTAINS(test::error_of<ConfigError>([&] { GlobalMap{bad}; }), "map.covered_elsewhere_min_colour");
 }
 
 /// A new cell meets a stored cell only when their mean colours are near
