@@ -54,7 +54,8 @@ struct MapConfig {
   /// histograms, which a textured facade spreads wide enough for a door cell to pass; the stored
   /// cell next to the new one is a local sample of its surface's colour. Surfaces' footprints
   /// still cover a cell of any mean colour within max_chromaticity_distance (a re-observation
-  /// under other light).
+  /// under other light), another surface than the cell's CRF label only with histograms alike
+  /// (covered_elsewhere_min_colour).
   double neighbour_max_rgb_distance = 20.0;
   /// σ floor (m): θ' residuals are measured in units of it, and a cell's depth noise σ_Z
   /// (Planecell::depth_sigma_m) counts as at least this much when weighting it (area / σ²).

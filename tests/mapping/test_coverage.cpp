@@ -22,7 +22,8 @@ using test::kZ;
 
 /// Colour bins (q = 16·l_R + 4·l_G + l_B) of one grey paint at three brightnesses: histograms
 /// that do not intersect (the CRF keeps them apart) but of one chromaticity (a surface's footprint
-/// may cover a cell of another), and rect_cell's mean colours 84 levels apart.
+/// may cover a cell of another with covered_elsewhere_min_colour off), and rect_cell's mean
+/// colours 84 levels apart.
 constexpr int kDarkGrey = 0, kGrey = 21, kBrightGrey = 42;
 
 /// The map's defaults but for MapConfig::covered_elsewhere_min_colour (off). The tests that keep a

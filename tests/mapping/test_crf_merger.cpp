@@ -372,9 +372,9 @@ TEST(IncrementalMerge, NoisyCellJoinsWithinItsNoiseButDoesNotBridgeParallelSurfa
   ASSERT_EQ(map.surfaces().size(), 2u);
   const std::uint32_t road = map.cells().at(0).surface, sidewalk = map.cells().at(1).surface;
   ASSERT_NE(road, sidewalk);
-  // Frame 2: one noisy cell (σ = 0.3 m, within the map's σ_Z gate) halfway between the two heights, spanning the gap and
-  // touching both: within its own noise of either plane, so it joins one of them, but the two
-  // precise surfaces stay apart (their planes step by 25 cm).
+  // Frame 2: one noisy cell (σ = 0.3 m, within the map's σ_Z gate) halfway between the two
+  // heights, spanning the gap and touching both: within its own noise of either plane, so it joins
+  // one of them, but the two precise surfaces stay apart (their planes step by 25 cm).
   Planecell bridge = rect_cell(0, {0.5f, 1.375f, 5.5f}, kX, kZ, 3);
   bridge.depth_sigma_m = 0.3f;
   const auto r2 = map.integrate(2, above, std::vector<Planecell>{bridge});
