@@ -143,9 +143,6 @@ void observe(Surface& surface, std::uint64_t frame_id) {
   surface.last_observed_frame = std::max(surface.last_observed_frame, frame_id);
 }
 
-/// histogram_chromaticity of a surface's colour histogram.
-Eigen::Vector3d chromaticity_of(const Surface& surface) { return histogram_chromaticity(expand(surface.histogram)); }
-
 LabelState state_of_surface(const Surface& surface) {
   LabelState s;
   s.plane = surface.plane;
@@ -863,17 +860,17 @@ MergeReport GlobalMap::integrate(std::uint64_t frame_id, const Pose& T_world_cam
       // (MapConfig::covered_elsewhere_min_colour).
       const Eigen::Vector3d chromaticity =
           covering_surfaces[k].empty() ? Eigen::Vector3d::Zero() : histogram_chromaticity(cell.histogram);
-      const auto colours_alike = [&](const Surface& surface) {
-        return !(config_.covered_elsewhere_min_colour > 0.0) || surface.id == root ||
-               colour_similarity(cell.histogram, expand(surface.histogram)) >= config_.covered_elsewhere_min_colour;
-      };
+      const double min_colour = config_.covered_elsewhere_min_colour;
       for (std::uint32_t id : covering_surfaces[k]) {
         const auto it = surfaces_.find(union_find.find(id));
-        if (it != surfaces_.end() && it->second.detail &&
-            !other_paint(chromaticity_of(it->second), chromaticity, config_.max_chromaticity_distance) &&
-            std::find(covering_surface.begin(), covering_surface.end(), &it->second) == covering_surface.end() &&
-            colours_alike(it->second))
-          covering_surface.push_back(&it->second);
+        if (it == surfaces_.end() || !it->second.detail ||
+            std::find(covering_surface.begin(), covering_surface.end(), &it->second) != covering_surface.end())
+          continue;
+        const ColourHistogram histogram = expand(it->second.histogram);  // once for both tests
+        if (other_paint(histogram_chromaticity(histogram), chromaticity, config_.max_chromaticity_distance) ||
+            (min_colour > 0.0 && it->second.id != root && colour_similarity(cell.histogram, histogram) < min_colour))
+          continue;
+        covering_surface.push_back(&it->second);
       }
     }
     const Coverage coverage = !settled_by_footprint && coverage_rule && (!covering.empty() || !covering_surface.empty())
